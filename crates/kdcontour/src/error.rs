@@ -1,0 +1,94 @@
+//! The one error type of the core: every failure a user can cause, with a message
+//! that says what to change.
+
+use glam::Vec3;
+
+/// Everything that can go wrong when sampling, building or loading.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum Error {
+    /// The grid has no cells, a non-positive or non-finite cell size, or a
+    /// non-finite origin.
+    #[error("invalid grid: {0}")]
+    InvalidGrid(String),
+    /// The field returned NaN or infinity at a sample point.
+    #[error(
+        "the field returned {value} at ({x}, {y}, {z}); fields must be finite everywhere \
+         in the volume (check divisions by zero, sqrt of negatives, or an unbounded noise \
+         amplitude)",
+        x = position.x, y = position.y, z = position.z
+    )]
+    NonFiniteSample {
+        /// Where the field was evaluated (world units).
+        position: Vec3,
+        /// What it returned.
+        value: f32,
+    },
+    /// The grid needs more memory than the configured budget allows.
+    #[error(
+        "a grid of {cells} cells needs about {needed} bytes, over the memory budget of \
+         {budget} bytes; lower the resolution, mesh in chunks, or raise \
+         Settings::memory_budget"
+    )]
+    MemoryBudget {
+        /// Cells in the grid.
+        cells: u64,
+        /// Estimated bytes the build needs.
+        needed: u64,
+        /// The configured budget.
+        budget: u64,
+    },
+    /// A setting is outside its allowed range.
+    #[error("invalid setting `{name}`: {reason}")]
+    InvalidSetting {
+        /// The setting's name.
+        name: &'static str,
+        /// What is wrong and what is allowed.
+        reason: String,
+    },
+    /// A scene file could not be parsed or describes an impossible scene.
+    #[error("{0}")]
+    Scene(#[from] SceneError),
+    /// Reading or writing a file failed.
+    #[error("{path}: {message}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The operating system's message.
+        message: String,
+    },
+}
+
+/// A scene-file problem, located by line and column where the text says where.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum SceneError {
+    /// The JSON is malformed or does not match the schema (unknown primitive, missing
+    /// field, wrong type).
+    #[error("scene file line {line}, column {column}: {message}")]
+    Syntax {
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// What serde found.
+        message: String,
+    },
+    /// The JSON parses but a value is impossible (a negative radius, an empty union).
+    #[error("scene node `{path}`: {message}")]
+    Semantic {
+        /// Where in the tree, e.g. `root.children[2].radius`.
+        path: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A built-in scene name that does not exist.
+    #[error("unknown scene `{name}`; built-in scenes are: {known}")]
+    UnknownScene {
+        /// The name asked for.
+        name: String,
+        /// The names that exist.
+        known: String,
+    },
+}
+
+/// Result alias for the core.
+pub type Result<T, E = Error> = std::result::Result<T, E>;

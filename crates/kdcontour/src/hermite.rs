@@ -1,0 +1,357 @@
+//! Hermite data (section 3): corner samples, active cells with their Dual Marching
+//! Cubes components, and for every edge with a sign change its crossing (found on
+//! the field by false position, not just interpolated) and the unit normal there.
+//!
+//! Positions are in grid units. A NaN or infinite sample is an error, never a mesh.
+
+use crate::cell::{edge_index, opposite_face, CellTables, NO_COMP};
+use crate::error::{Error, Result};
+use crate::field::Field;
+use crate::grid::Grid;
+use crate::qef::Qef;
+use crate::Settings;
+use glam::{UVec3, Vec3};
+use rayon::prelude::*;
+
+/// A cell with at least one sign change.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ActiveCell {
+    /// Cell coordinates.
+    pub coord: [u16; 3],
+    /// Outside bits of its corners (see [`crate::cell`]).
+    pub config: u8,
+    /// Face resolution mask (see [`crate::cell`]).
+    pub mask: u8,
+    /// Index of its first patch in [`Hermite::patch_qef`].
+    pub patch_base: u32,
+}
+
+/// Hermite data of a sampled grid.
+pub struct Hermite {
+    /// The grid.
+    pub grid: Grid,
+    /// One bit per corner: set when the corner is outside (value >= 0).
+    pub outside: Vec<u64>,
+    /// Active cells, ordered by linear index (x fastest).
+    pub cells: Vec<ActiveCell>,
+    /// QEF of each cell patch (grid units).
+    pub patch_qef: Vec<Qef>,
+    /// Sum of the unit normals of each patch's crossings.
+    pub patch_normal: Vec<Vec3>,
+    /// Number of edges with a sign change.
+    pub crossings: usize,
+}
+
+/// Estimated bytes the build needs for `grid` (samples, sign bits, the cell lookup
+/// and a surface-proportional allowance for patches and tree nodes).
+pub fn estimate_bytes(grid: &Grid) -> u64 {
+    let corners = grid.corner_count();
+    let cells = grid.cell_count();
+    let c = grid.cells.as_u64vec3();
+    let surface_cells = 2 * (c.x * c.y + c.y * c.z + c.z * c.x);
+    corners * 4 + corners / 8 + cells * 4 + surface_cells * 8 * 420
+}
+
+/// Checks the grid and the memory budget before anything is allocated.
+pub fn check_grid(grid: &Grid, settings: &Settings) -> Result<()> {
+    grid.validate()?;
+    let needed = estimate_bytes(grid);
+    if needed > settings.memory_budget {
+        return Err(Error::MemoryBudget {
+            cells: grid.cell_count(),
+            needed,
+            budget: settings.memory_budget,
+        });
+    }
+    Ok(())
+}
+
+/// Samples `field` at every corner of `grid`, in parallel over z slabs.
+pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Vec<f32>> {
+    check_grid(grid, settings)?;
+    let c = grid.corners();
+    let slab = (c.x * c.y) as usize;
+    let mut values = vec![0f32; grid.corner_count() as usize];
+    const SLICES: u32 = 2;
+    values
+        .par_chunks_mut(slab * SLICES as usize)
+        .enumerate()
+        .for_each(|(i, out)| {
+            let z0 = i as u32 * SLICES;
+            let z1 = (z0 + SLICES).min(c.z);
+            field.sample_grid(grid, z0..z1, out);
+        });
+    if let Some(i) = values.par_iter().position_first(|v| !v.is_finite()) {
+        let z = i / slab;
+        let y = (i % slab) / c.x as usize;
+        let x = i % c.x as usize;
+        return Err(Error::NonFiniteSample {
+            position: grid.corner_pos(UVec3::new(x as u32, y as u32, z as u32)),
+            value: values[i],
+        });
+    }
+    Ok(values)
+}
+
+struct Crossing {
+    /// The cell that owns the edge and the edge's index in it.
+    cell: u32,
+    edge: u8,
+    point: Vec3,
+    normal: Vec3,
+}
+
+impl Hermite {
+    /// Builds Hermite data from samples of `field` on `grid` (from [`sample`]).
+    pub fn new(
+        field: &dyn Field,
+        grid: &Grid,
+        values: &[f32],
+        settings: &Settings,
+    ) -> Result<Self> {
+        let tables = CellTables::get();
+        let n = grid.cells;
+        let corners = grid.corners();
+        let cidx = |x: u32, y: u32, z: u32| grid.corner_index(x, y, z);
+        let config_at = |x: u32, y: u32, z: u32| -> u8 {
+            let mut cfg = 0u8;
+            for i in 0..8u32 {
+                let v = values[cidx(x + (i & 1), y + ((i >> 1) & 1), z + ((i >> 2) & 1))];
+                if v >= 0.0 {
+                    cfg |= 1 << i;
+                }
+            }
+            cfg
+        };
+
+        // Active cells, layer by layer.
+        let layers: Vec<Vec<ActiveCell>> = (0..n.z)
+            .into_par_iter()
+            .map(|z| {
+                let mut out = Vec::new();
+                for y in 0..n.y {
+                    for x in 0..n.x {
+                        let cfg = config_at(x, y, z);
+                        if cfg == 0 || cfg == 255 {
+                            continue;
+                        }
+                        let mut mask = 0u8;
+                        let joined = tables.skeleton_joined[cfg as usize];
+                        for f in 0..6usize {
+                            if joined & (1 << f) == 0 {
+                                continue;
+                            }
+                            let a = f / 2;
+                            let mut nc = [x as i64, y as i64, z as i64];
+                            nc[a] += if f % 2 == 1 { 1 } else { -1 };
+                            if nc[a] < 0 || nc[a] >= n[a] as i64 {
+                                continue;
+                            }
+                            let ncfg = config_at(nc[0] as u32, nc[1] as u32, nc[2] as u32);
+                            if tables.skeleton_joined[ncfg as usize] & (1 << opposite_face(f)) != 0
+                            {
+                                mask |= 1 << f;
+                            }
+                        }
+                        out.push(ActiveCell {
+                            coord: [x as u16, y as u16, z as u16],
+                            config: cfg,
+                            mask,
+                            patch_base: 0,
+                        });
+                    }
+                }
+                out
+            })
+            .collect();
+        let mut cells: Vec<ActiveCell> = Vec::with_capacity(layers.iter().map(Vec::len).sum());
+        for l in layers {
+            cells.extend(l);
+        }
+        let mut patches = 0u32;
+        for c in cells.iter_mut() {
+            c.patch_base = patches;
+            patches += tables.cell(c.config, c.mask).count as u32;
+        }
+
+        // Dense lookup from cell to active index (dropped after the build).
+        let mut lookup = vec![u32::MAX; grid.cell_count() as usize];
+        let lin = |c: [u32; 3]| {
+            c[0] as usize + n.x as usize * (c[1] as usize + n.y as usize * c[2] as usize)
+        };
+        for (i, c) in cells.iter().enumerate() {
+            lookup[lin([c.coord[0] as u32, c.coord[1] as u32, c.coord[2] as u32])] = i as u32;
+        }
+
+        // Crossings of the edges each active cell owns: an edge belongs to the cell
+        // that has it on its low side in both other axes, or to the last cell along
+        // an axis at the grid's high boundary.
+        let iterations = settings.root_iterations;
+        let crossing_lists: Vec<Result<Vec<Crossing>>> = cells
+            .par_chunks(1024)
+            .enumerate()
+            .map(|(chunk, list)| {
+                let mut out = Vec::new();
+                for (j, c) in list.iter().enumerate() {
+                    let cc = tables.cell(c.config, c.mask);
+                    let coord = [c.coord[0] as u32, c.coord[1] as u32, c.coord[2] as u32];
+                    for e in 0..12usize {
+                        if cc.edge_comp[e] == NO_COMP {
+                            continue;
+                        }
+                        let a = e / 4;
+                        let (u, v) = ((a + 1) % 3, (a + 2) % 3);
+                        let bu = (e % 4) as u32 & 1;
+                        let bv = (e % 4) as u32 >> 1;
+                        if (bu == 1 && coord[u] + 1 != n[u]) || (bv == 1 && coord[v] + 1 != n[v]) {
+                            continue;
+                        }
+                        let mut g = coord;
+                        g[u] += bu;
+                        g[v] += bv;
+                        let mut h = g;
+                        h[a] += 1;
+                        let v0 = values[cidx(g[0], g[1], g[2])];
+                        let v1 = values[cidx(h[0], h[1], h[2])];
+                        let p0 = UVec3::from(g).as_vec3();
+                        let dir = Vec3::AXES[a];
+                        let t = find_root(field, grid, p0, dir, v0, v1, iterations)?;
+                        let point = p0 + dir * t;
+                        let wp = grid.to_world(point);
+                        let grad = field.gradient(wp);
+                        let outward = if v1 >= 0.0 { dir } else { -dir };
+                        let normal = if grad.is_finite() && grad.length_squared() > 1e-20 {
+                            grad.normalize()
+                        } else {
+                            outward
+                        };
+                        out.push(Crossing {
+                            cell: (chunk * 1024 + j) as u32,
+                            edge: e as u8,
+                            point,
+                            normal,
+                        });
+                    }
+                }
+                Ok(out)
+            })
+            .collect();
+
+        let mut patch_qef = vec![Qef::default(); patches as usize];
+        let mut patch_normal = vec![Vec3::ZERO; patches as usize];
+        let mut crossings = 0usize;
+        for list in crossing_lists {
+            for x in list? {
+                crossings += 1;
+                let owner = cells[x.cell as usize];
+                let e = x.edge as usize;
+                let a = e / 4;
+                let (u, v) = ((a + 1) % 3, (a + 2) % 3);
+                let mut g = [
+                    owner.coord[0] as u32,
+                    owner.coord[1] as u32,
+                    owner.coord[2] as u32,
+                ];
+                g[u] += (e % 4) as u32 & 1;
+                g[v] += (e % 4) as u32 >> 1;
+                // The (up to) four cells around the edge.
+                for su in 0..2u32 {
+                    for sv in 0..2u32 {
+                        if (su == 0 && g[u] == 0) || (sv == 0 && g[v] == 0) {
+                            continue;
+                        }
+                        let mut c = g;
+                        c[u] = g[u] + su - 1;
+                        c[v] = g[v] + sv - 1;
+                        if c[u] >= n[u] || c[v] >= n[v] {
+                            continue;
+                        }
+                        let idx = lookup[lin(c)];
+                        debug_assert!(idx != u32::MAX, "a cell around a crossing is active");
+                        let cell = cells[idx as usize];
+                        let comp = tables.cell(cell.config, cell.mask).edge_comp
+                            [edge_index(a, 1 - su, 1 - sv)];
+                        debug_assert!(comp != NO_COMP);
+                        let p = (cell.patch_base + comp as u32) as usize;
+                        patch_qef[p].add_plane(x.point, x.normal);
+                        patch_normal[p] += x.normal;
+                    }
+                }
+            }
+        }
+        drop(lookup);
+
+        let mut outside =
+            vec![0u64; (corners.x as usize * corners.y as usize * corners.z as usize).div_ceil(64)];
+        for (i, v) in values.iter().enumerate() {
+            if *v >= 0.0 {
+                outside[i / 64] |= 1 << (i % 64);
+            }
+        }
+        Ok(Hermite {
+            grid: *grid,
+            outside,
+            cells,
+            patch_qef,
+            patch_normal,
+            crossings,
+        })
+    }
+
+    /// Whether corner `(x, y, z)` is outside.
+    #[inline]
+    pub fn is_outside(&self, c: [u32; 3]) -> bool {
+        let i = self.grid.corner_index(c[0], c[1], c[2]);
+        self.outside[i / 64] >> (i % 64) & 1 == 1
+    }
+}
+
+/// The crossing along `p0 + t * dir`, `t` in `[0, 1]`, between samples `v0` and `v1`
+/// of opposite sign: linear interpolation refined by up to `iterations` steps of the
+/// Illinois false-position method on the field itself.
+fn find_root(
+    field: &dyn Field,
+    grid: &Grid,
+    p0: Vec3,
+    dir: Vec3,
+    v0: f32,
+    v1: f32,
+    iterations: u32,
+) -> Result<f32> {
+    let (mut t0, mut f0, mut t1, mut f1) = (0f32, v0, 1f32, v1);
+    let mut t = (f0 / (f0 - f1)).clamp(0.0, 1.0);
+    let mut side = 0i8;
+    for _ in 0..iterations {
+        let wp = grid.to_world(p0 + dir * t);
+        let ft = field.value(wp);
+        if !ft.is_finite() {
+            return Err(Error::NonFiniteSample {
+                position: wp,
+                value: ft,
+            });
+        }
+        if ft == 0.0 || (t1 - t0) < 1e-5 {
+            break;
+        }
+        if (ft >= 0.0) == (f0 >= 0.0) {
+            t0 = t;
+            f0 = ft;
+            if side == -1 {
+                f1 *= 0.5;
+            }
+            side = -1;
+        } else {
+            t1 = t;
+            f1 = ft;
+            if side == 1 {
+                f0 *= 0.5;
+            }
+            side = 1;
+        }
+        if f0 == f1 {
+            break;
+        }
+        t = (t0 - f0 * (t1 - t0) / (f1 - f0)).clamp(t0, t1);
+    }
+    Ok(t)
+}

@@ -1,0 +1,146 @@
+//! The discrete k-d tree (sections 4 to 6 of the paper): built once from Hermite
+//! data, retained, and contoured at any error threshold without re-sampling.
+
+mod build;
+mod contour;
+
+use crate::grid::Grid;
+use glam::Vec3;
+
+pub use build::build;
+
+/// Marks a missing child (an empty box pruned during construction).
+pub const NONE: u32 = u32::MAX;
+/// [`KdNode::axis`] of a 1x1x1 cell leaf.
+pub const CELL: u8 = 3;
+
+/// One node of the retained tree: a box of cells, split on `axis` at `split`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KdNode {
+    /// Lowest corner (cell coordinates).
+    pub min: [u16; 3],
+    /// Highest corner (exclusive cell coordinates = corner coordinates).
+    pub max: [u16; 3],
+    /// Low and high child, or [`NONE`].
+    pub children: [u32; 2],
+    /// Split axis 0..3, or [`CELL`] for a 1x1x1 leaf.
+    pub axis: u8,
+    /// Cell leaves: the corner signs (see [`crate::cell`]).
+    pub config: u8,
+    /// Cell leaves: the face resolution mask.
+    pub mask: u8,
+    /// Number of surface components (0 when not clusterable).
+    pub comp_count: u8,
+    /// Split plane position (absolute cell coordinate).
+    pub split: u16,
+    /// Whether the node may stand in for its subtree (section 5).
+    pub clusterable: bool,
+    /// Index of the first component in [`KdTree::comps`].
+    pub comp_start: u32,
+    /// Largest QEF residual of any component at or below this node (squared grid
+    /// units); infinite when not clusterable. Never smaller than a child's.
+    pub error: f32,
+}
+
+/// A surface component of a clusterable node: one dual vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Comp {
+    /// Vertex position (grid units), the QEF minimiser kept inside the node's box.
+    pub vertex: Vec3,
+    /// Unit normal: the normalised sum of its crossings' normals.
+    pub normal: Vec3,
+    /// Index of the component of the parent node this one merges into.
+    pub parent: u8,
+}
+
+/// Times and sizes of one build.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BuildStats {
+    /// Sampling the field and finding crossings (ms).
+    pub sample_ms: f64,
+    /// Building and clustering the tree (ms).
+    pub build_ms: f64,
+    /// Active cells.
+    pub active_cells: usize,
+    /// Edges with a sign change.
+    pub crossings: usize,
+}
+
+/// The retained discrete k-d tree of one grid.
+pub struct KdTree {
+    /// The grid it was built on.
+    pub grid: Grid,
+    /// All nodes; children come before their parent.
+    pub nodes: Vec<KdNode>,
+    /// Components of all clusterable nodes.
+    pub comps: Vec<Comp>,
+    /// The root, or [`NONE`] when the volume has no surface.
+    pub root: u32,
+    /// One bit per grid corner: set when outside.
+    pub outside: Vec<u64>,
+    /// How the build went.
+    pub stats: BuildStats,
+}
+
+impl KdTree {
+    /// Whether corner `c` is outside.
+    #[inline]
+    pub fn is_outside(&self, c: [u32; 3]) -> bool {
+        let i = self.grid.corner_index(c[0], c[1], c[2]);
+        self.outside[i / 64] >> (i % 64) & 1 == 1
+    }
+
+    /// Bytes held by the retained tree (nodes, components and sign bits).
+    pub fn retained_bytes(&self) -> usize {
+        self.nodes.capacity() * std::mem::size_of::<KdNode>()
+            + self.comps.capacity() * std::mem::size_of::<Comp>()
+            + self.outside.capacity() * 8
+    }
+
+    /// Whether node `n` is a leaf at threshold `e`: a cell, or clusterable with
+    /// error at most `e`.
+    #[inline]
+    pub fn is_leaf(&self, n: u32, e: f32) -> bool {
+        let node = &self.nodes[n as usize];
+        node.axis == CELL || (node.clusterable && node.error <= e)
+    }
+
+    /// Component (index within node `x`) of the patch of fine cell `cell` that edge
+    /// `edge` of the cell belongs to. `x` must be clusterable and contain `cell`.
+    pub fn comp_of(&self, x: u32, cell: [u32; 3], edge: usize) -> u8 {
+        comp_in(&self.nodes, &self.comps, x, cell, edge)
+    }
+}
+
+/// Walks from clusterable node `x` down to `cell`, then back up through the
+/// components' `parent` links.
+pub(crate) fn comp_in(nodes: &[KdNode], comps: &[Comp], x: u32, cell: [u32; 3], edge: usize) -> u8 {
+    let mut path = [0u32; 128];
+    let mut depth = 0;
+    let mut n = x;
+    loop {
+        let node = &nodes[n as usize];
+        if node.axis == CELL {
+            break;
+        }
+        let a = node.axis as usize;
+        let side = (cell[a] >= node.split as u32) as usize;
+        path[depth] = n;
+        depth += 1;
+        n = node.children[side];
+        debug_assert!(n != NONE, "cell {cell:?} is not in the subtree");
+    }
+    let node = &nodes[n as usize];
+    let mut local = crate::cell::CellTables::get()
+        .cell(node.config, node.mask)
+        .edge_comp[edge];
+    debug_assert!(local != crate::cell::NO_COMP);
+    // Walk up from the cell to just below x.
+    let mut child = n;
+    while depth > 0 {
+        local = comps[(nodes[child as usize].comp_start + local as u32) as usize].parent;
+        depth -= 1;
+        child = path[depth];
+    }
+    local
+}

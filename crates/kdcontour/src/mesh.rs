@@ -1,0 +1,180 @@
+//! The output mesh, and OBJ / binary PLY writers.
+
+use crate::error::{Error, Result};
+use glam::Vec3;
+use std::io::Write;
+
+/// An indexed triangle mesh with per-vertex normals, counter-clockwise front faces
+/// (normals point out of the solid). Reuse one across extractions: [`reset`]
+/// keeps the buffers' capacity.
+///
+/// [`reset`]: IndexedMesh::reset
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct IndexedMesh {
+    /// Vertex positions (world units).
+    pub positions: Vec<Vec3>,
+    /// Unit vertex normals.
+    pub normals: Vec<Vec3>,
+    /// Three indices per triangle.
+    pub indices: Vec<u32>,
+}
+
+impl IndexedMesh {
+    /// Empties the mesh and keeps its capacity.
+    pub fn reset(&mut self) {
+        self.positions.clear();
+        self.normals.clear();
+        self.indices.clear();
+    }
+
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    /// Number of vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Whether there is no triangle.
+    pub fn is_empty(&self) -> bool {
+        self.indices.is_empty()
+    }
+
+    /// Appends `other`, offsetting its indices.
+    pub fn append(&mut self, other: &IndexedMesh) {
+        let base = self.positions.len() as u32;
+        self.positions.extend_from_slice(&other.positions);
+        self.normals.extend_from_slice(&other.normals);
+        self.indices.extend(other.indices.iter().map(|i| i + base));
+    }
+
+    /// Appends the polygon `ids` (a quad, or a triangle when neighbouring ids
+    /// repeat), splitting a quad along the diagonal whose two triangles bend least
+    /// (the shorter diagonal on a tie).
+    pub fn push_polygon(&mut self, ids: [u32; 4]) {
+        let mut poly = [0u32; 4];
+        let mut k = 0;
+        for i in 0..4 {
+            if ids[i] != ids[(i + 3) % 4] {
+                poly[k] = ids[i];
+                k += 1;
+            }
+        }
+        match k {
+            3 => self.indices.extend_from_slice(&poly[..3]),
+            4 => {
+                let p = |i: usize| self.positions[poly[i] as usize];
+                let n = |a: usize, b: usize, c: usize| {
+                    (p(b) - p(a)).cross(p(c) - p(a)).normalize_or_zero()
+                };
+                let bend02 = n(0, 1, 2).dot(n(0, 2, 3));
+                let bend13 = n(0, 1, 3).dot(n(1, 2, 3));
+                let use02 = if (bend02 - bend13).abs() > 1e-6 {
+                    bend02 > bend13
+                } else {
+                    p(0).distance_squared(p(2)) <= p(1).distance_squared(p(3))
+                };
+                let tris = if use02 {
+                    [poly[0], poly[1], poly[2], poly[0], poly[2], poly[3]]
+                } else {
+                    [poly[0], poly[1], poly[3], poly[1], poly[2], poly[3]]
+                };
+                self.indices.extend_from_slice(&tris);
+            }
+            _ => {}
+        }
+    }
+
+    /// Writes Wavefront OBJ text with normals.
+    pub fn write_obj(&self, w: &mut impl Write) -> std::io::Result<()> {
+        let mut w = std::io::BufWriter::new(w);
+        writeln!(
+            w,
+            "# kdcontour: {} vertices, {} triangles",
+            self.vertex_count(),
+            self.triangle_count()
+        )?;
+        for p in &self.positions {
+            writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+        }
+        for n in &self.normals {
+            writeln!(w, "vn {} {} {}", n.x, n.y, n.z)?;
+        }
+        for t in self.indices.chunks_exact(3) {
+            let (a, b, c) = (t[0] + 1, t[1] + 1, t[2] + 1);
+            writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")?;
+        }
+        w.flush()
+    }
+
+    /// Writes binary little-endian PLY with normals.
+    pub fn write_ply(&self, w: &mut impl Write) -> std::io::Result<()> {
+        let mut w = std::io::BufWriter::new(w);
+        write!(
+            w,
+            "ply\nformat binary_little_endian 1.0\ncomment kdcontour\nelement vertex {}\n\
+             property float x\nproperty float y\nproperty float z\n\
+             property float nx\nproperty float ny\nproperty float nz\n\
+             element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
+            self.vertex_count(),
+            self.triangle_count()
+        )?;
+        for (p, n) in self.positions.iter().zip(&self.normals) {
+            for f in [p.x, p.y, p.z, n.x, n.y, n.z] {
+                w.write_all(&f.to_le_bytes())?;
+            }
+        }
+        for t in self.indices.chunks_exact(3) {
+            w.write_all(&[3u8])?;
+            for i in t {
+                w.write_all(&i.to_le_bytes())?;
+            }
+        }
+        w.flush()
+    }
+
+    /// Writes OBJ or PLY, chosen by the extension of `path`.
+    pub fn save(&self, path: &std::path::Path) -> Result<()> {
+        let io = |e: std::io::Error| Error::Io {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        };
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase());
+        let mut f = std::fs::File::create(path).map_err(io)?;
+        match ext.as_deref() {
+            Some("obj") => self.write_obj(&mut f).map_err(io),
+            Some("ply") => self.write_ply(&mut f).map_err(io),
+            _ => Err(Error::Io {
+                path: path.display().to_string(),
+                message: "unknown mesh format; use a .obj or .ply extension".into(),
+            }),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ply_header_and_size() {
+        let m = IndexedMesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            normals: vec![Vec3::Z; 3],
+            indices: vec![0, 1, 2],
+        };
+        let mut buf = Vec::new();
+        m.write_ply(&mut buf).unwrap();
+        let header_end = buf.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+        assert_eq!(buf.len() - header_end, 3 * 24 + 13);
+        let mut obj = Vec::new();
+        m.write_obj(&mut obj).unwrap();
+        let text = String::from_utf8(obj).unwrap();
+        assert!(text.contains("f 1//1 2//2 3//3"));
+    }
+}
