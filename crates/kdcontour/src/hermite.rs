@@ -66,21 +66,39 @@ pub fn check_grid(grid: &Grid, settings: &Settings) -> Result<()> {
     Ok(())
 }
 
+/// Cells per side of the blocks that sampling may skip (fields with a Lipschitz
+/// bound only). Measured at res 128 (block centres included): 4 evaluates 12.6% of
+/// the corners of `disk_pole` and 9.3% of `csg_mix`; 8 evaluates 28.7% / 16.1% (its
+/// blocks are rarely far enough), 2 evaluates 21.3% / 15.3% (too many centres).
+const SKIP_BLOCK: u32 = 4;
+
 /// Samples `field` at every corner of `grid`, in parallel over z slabs.
+///
+/// With a Lipschitz bound `L`, the field is first evaluated at the centre of every
+/// block of `SKIP_BLOCK`³ cells; a block whose centre value exceeds `L` times its
+/// half-diagonal holds no surface, and its corners get the conservative value
+/// `v_c - L |p - c|` (same sign, never zero) instead of an evaluation. Those values
+/// only ever decide signs; crossings are re-evaluated on the field.
 pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Vec<f32>> {
     check_grid(grid, settings)?;
     let c = grid.corners();
     let slab = (c.x * c.y) as usize;
     let mut values = vec![0f32; grid.corner_count() as usize];
-    const SLICES: u32 = 2;
-    values
-        .par_chunks_mut(slab * SLICES as usize)
-        .enumerate()
-        .for_each(|(i, out)| {
-            let z0 = i as u32 * SLICES;
-            let z1 = (z0 + SLICES).min(c.z);
-            field.sample_grid(grid, z0..z1, out);
-        });
+    let lipschitz = field.lipschitz().filter(|l| l.is_finite() && *l > 0.0);
+    match lipschitz {
+        None => {
+            const SLICES: u32 = 2;
+            values
+                .par_chunks_mut(slab * SLICES as usize)
+                .enumerate()
+                .for_each(|(i, out)| {
+                    let z0 = i as u32 * SLICES;
+                    let z1 = (z0 + SLICES).min(c.z);
+                    field.sample_grid(grid, z0..z1, out);
+                });
+        }
+        Some(l) => sample_skipping(field, grid, l, &mut values),
+    }
     if let Some(i) = values.par_iter().position_first(|v| !v.is_finite()) {
         let z = i / slab;
         let y = (i % slab) / c.x as usize;
@@ -91,6 +109,69 @@ pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Vec
         });
     }
     Ok(values)
+}
+
+fn sample_skipping(field: &dyn Field, grid: &Grid, l: f32, values: &mut [f32]) {
+    let n = grid.cells;
+    let c = grid.corners();
+    let b = SKIP_BLOCK;
+    let nb = (n + UVec3::splat(b - 1)) / b;
+    let half_diag = (b as f32 * 0.5) * 3f32.sqrt() * grid.cell_size;
+    // Block centre values, or NaN where the block may hold surface.
+    let centres: Vec<(Vec3, f32)> = (0..nb.z)
+        .into_par_iter()
+        .flat_map_iter(|bz| {
+            (0..nb.y).flat_map(move |by| {
+                (0..nb.x).map(move |bx| {
+                    let lo = UVec3::new(bx, by, bz) * b;
+                    let hi = (lo + UVec3::splat(b)).min(n);
+                    let centre = grid.to_world((lo + hi).as_vec3() * 0.5);
+                    let half = (hi - lo).as_vec3().length() * 0.5 * grid.cell_size;
+                    let v = field.value(centre);
+                    let far = v.is_finite() && v.abs() > l * half.min(half_diag) * 1.001 + 1e-7;
+                    (centre, if far { v } else { f32::NAN })
+                })
+            })
+        })
+        .collect();
+    let slab = (c.x * c.y) as usize;
+    values
+        .par_chunks_mut(slab)
+        .enumerate()
+        .for_each(|(z, out)| {
+            let z = z as u32;
+            for y in 0..c.y {
+                for x in 0..c.x {
+                    let p = grid.corner_pos(UVec3::new(x, y, z));
+                    // A corner on block boundaries lies in up to eight blocks; any one
+                    // far block decides its sign.
+                    let mut known = None;
+                    'blocks: for bz in block_range(z, b, nb.z) {
+                        for by in block_range(y, b, nb.y) {
+                            for bx in block_range(x, b, nb.x) {
+                                let (centre, v) = centres[(bx + nb.x * (by + nb.y * bz)) as usize];
+                                if !v.is_nan() {
+                                    let bound = v.abs() - l * p.distance(centre);
+                                    known = Some(v.signum() * bound.max(1e-7));
+                                    break 'blocks;
+                                }
+                            }
+                        }
+                    }
+                    out[(x + c.x * y) as usize] = match known {
+                        Some(v) => v,
+                        None => field.value(p),
+                    };
+                }
+            }
+        });
+}
+
+/// Blocks (of `b` cells) that contain corner coordinate `i`.
+fn block_range(i: u32, b: u32, nb: u32) -> std::ops::Range<u32> {
+    let hi = (i / b).min(nb - 1);
+    let lo = if i % b == 0 && i > 0 { i / b - 1 } else { hi };
+    lo..hi + 1
 }
 
 struct Crossing {
@@ -187,6 +268,7 @@ impl Hermite {
         // that has it on its low side in both other axes, or to the last cell along
         // an axis at the grid's high boundary.
         let iterations = settings.root_iterations;
+        let skipped = field.lipschitz().is_some();
         let crossing_lists: Vec<Result<Vec<Crossing>>> = cells
             .par_chunks(1024)
             .enumerate()
@@ -211,9 +293,19 @@ impl Hermite {
                         g[v] += bv;
                         let mut h = g;
                         h[a] += 1;
-                        let v0 = values[cidx(g[0], g[1], g[2])];
-                        let v1 = values[cidx(h[0], h[1], h[2])];
+                        let mut v0 = values[cidx(g[0], g[1], g[2])];
+                        let mut v1 = values[cidx(h[0], h[1], h[2])];
                         let p0 = UVec3::from(g).as_vec3();
+                        if skipped {
+                            // Skipped corners hold bounds, not values: the crossing
+                            // needs the real ones (signs are unchanged).
+                            v0 = field.value(grid.to_world(p0));
+                            v1 = field.value(grid.to_world(UVec3::from(h).as_vec3()));
+                            if (v0 >= 0.0) == (v1 >= 0.0) {
+                                v0 = values[cidx(g[0], g[1], g[2])];
+                                v1 = values[cidx(h[0], h[1], h[2])];
+                            }
+                        }
                         let dir = Vec3::AXES[a];
                         let t = find_root(field, grid, p0, dir, v0, v1, iterations)?;
                         let point = p0 + dir * t;

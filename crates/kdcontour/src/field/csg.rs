@@ -381,24 +381,30 @@ impl CsgNode {
 
 enum Op {
     Prim(Primitive, Vec3),
-    Union(Vec<Op>),
-    Intersection(Vec<Op>),
-    Difference(Box<Op>, Box<Op>),
-    SmoothUnion(f32, Vec<Op>),
-    SmoothIntersection(f32, Vec<Op>),
-    SmoothDifference(f32, Box<Op>, Box<Op>),
+    Union(Vec<Node>),
+    Intersection(Vec<Node>),
+    Difference(Box<Node>, Box<Node>),
+    SmoothUnion(f32, Vec<Node>),
+    SmoothIntersection(f32, Vec<Node>),
+    SmoothDifference(f32, Box<Node>, Box<Node>),
     Transform {
         inv_rot: Quat,
         rot: Quat,
         translate: Vec3,
         scale: f32,
-        child: Box<Op>,
+        child: Box<Node>,
     },
     Heightfield(Box<Heightfield>),
     Density(Box<Density>),
 }
 
-fn compile(n: &CsgNode) -> Op {
+fn compile(n: &CsgNode) -> Node {
+    let op = compile_op(n);
+    let bound = bound_of(&op);
+    Node { op, bound }
+}
+
+fn compile_op(n: &CsgNode) -> Op {
     let prim = |p: Primitive, c: &Vec3| Op::Prim(p, *c);
     match n {
         CsgNode::Sphere { radius, center } => prim(Primitive::Sphere { radius: *radius }, center),
@@ -524,6 +530,164 @@ fn neg(a: (f32, Vec3)) -> (f32, Vec3) {
     (-a.0, -a.1)
 }
 
+/// A sphere with `value(p) >= |p - center| - radius` everywhere: for an exact SDF any
+/// sphere enclosing the shape (inside, the distance to the shape's boundary is at
+/// most the distance to the sphere's).
+#[derive(Clone, Copy, Debug)]
+struct Bound {
+    center: Vec3,
+    radius: f32,
+}
+
+impl Bound {
+    fn lower(&self, p: Vec3) -> f32 {
+        p.distance(self.center) - self.radius
+    }
+    fn grow(self, by: f32) -> Bound {
+        Bound {
+            center: self.center,
+            radius: self.radius + by,
+        }
+    }
+}
+
+fn enclose(bounds: &[Option<Bound>]) -> Option<Bound> {
+    let b: Option<Vec<Bound>> = bounds.iter().cloned().collect();
+    let b = b?;
+    let (lo, hi) = b
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), x| {
+            (lo.min(x.center - x.radius), hi.max(x.center + x.radius))
+        });
+    let center = (lo + hi) * 0.5;
+    let radius = b
+        .iter()
+        .map(|x| x.center.distance(center) + x.radius)
+        .fold(0.0, f32::max);
+    Some(Bound { center, radius })
+}
+
+/// A compiled node with its bound (None: unbounded, e.g. terrain or a plane).
+struct Node {
+    op: Op,
+    bound: Option<Bound>,
+}
+
+fn bound_of(op: &Op) -> Option<Bound> {
+    match op {
+        Op::Prim(prim, c) => {
+            let r = prim.bounding_radius();
+            r.is_finite().then_some(Bound {
+                center: *c,
+                radius: r,
+            })
+        }
+        Op::Union(ch) => enclose(&ch.iter().map(|c| c.bound).collect::<Vec<_>>()),
+        Op::SmoothUnion(k, ch) => {
+            enclose(&ch.iter().map(|c| c.bound).collect::<Vec<_>>()).map(|b| b.grow(k * 0.25))
+        }
+        Op::Intersection(ch) => ch
+            .iter()
+            .filter_map(|c| c.bound)
+            .min_by(|a, b| a.radius.total_cmp(&b.radius)),
+        Op::SmoothIntersection(k, ch) => ch
+            .iter()
+            .filter_map(|c| c.bound)
+            .min_by(|a, b| a.radius.total_cmp(&b.radius))
+            .map(|b| b.grow(k * 0.25)),
+        Op::Difference(a, _) => a.bound,
+        Op::SmoothDifference(k, a, _) => a.bound.map(|b| b.grow(k * 0.25)),
+        Op::Transform {
+            rot,
+            translate,
+            scale,
+            child,
+            ..
+        } => child.bound.map(|b| Bound {
+            center: *rot * (b.center * *scale) + *translate,
+            radius: b.radius * scale,
+        }),
+        Op::Heightfield(_) | Op::Density(_) => None,
+    }
+}
+
+fn exact(op: &Op) -> bool {
+    match op {
+        Op::Prim(..) => true,
+        Op::Union(ch)
+        | Op::Intersection(ch)
+        | Op::SmoothUnion(_, ch)
+        | Op::SmoothIntersection(_, ch) => ch.iter().all(|c| exact(&c.op)),
+        Op::Difference(a, b) | Op::SmoothDifference(_, a, b) => exact(&a.op) && exact(&b.op),
+        Op::Transform { child, .. } => exact(&child.op),
+        Op::Heightfield(_) | Op::Density(_) => false,
+    }
+}
+
+impl Node {
+    fn eval(&self, p: Vec3) -> (f32, Vec3) {
+        match &self.op {
+            Op::Union(ch) => {
+                let mut best = (f32::INFINITY, Vec3::Y);
+                for c in ch {
+                    if let Some(b) = c.bound {
+                        if b.lower(p) >= best.0 {
+                            continue;
+                        }
+                    }
+                    let v = c.eval(p);
+                    if v.0 < best.0 {
+                        best = v;
+                    }
+                }
+                best
+            }
+            Op::Difference(a, b) => {
+                let a = a.eval(p);
+                if let Some(bb) = b.bound {
+                    if -bb.lower(p) <= a.0 {
+                        return a;
+                    }
+                }
+                let b = neg(b.eval(p));
+                if b.0 > a.0 {
+                    b
+                } else {
+                    a
+                }
+            }
+            _ => self.op.eval(p),
+        }
+    }
+
+    fn value(&self, p: Vec3) -> f32 {
+        match &self.op {
+            Op::Union(ch) => {
+                let mut best = f32::INFINITY;
+                for c in ch {
+                    if let Some(b) = c.bound {
+                        if b.lower(p) >= best {
+                            continue;
+                        }
+                    }
+                    best = best.min(c.value(p));
+                }
+                best
+            }
+            Op::Difference(a, b) => {
+                let a = a.value(p);
+                if let Some(bb) = b.bound {
+                    if -bb.lower(p) <= a {
+                        return a;
+                    }
+                }
+                a.max(-b.value(p))
+            }
+            _ => self.op.value(p),
+        }
+    }
+}
+
 impl Op {
     fn eval(&self, p: Vec3) -> (f32, Vec3) {
         match self {
@@ -597,9 +761,11 @@ impl Op {
     }
 }
 
-/// A compiled CSG tree; a [`Field`] with analytic gradients where its parts have them.
+/// A compiled CSG tree; a [`Field`] with analytic gradients where its parts have
+/// them. Unions and differences skip children whose bounding sphere proves they
+/// cannot change the result.
 pub struct Csg {
-    root: Op,
+    root: Node,
 }
 
 impl Field for Csg {
@@ -608,6 +774,12 @@ impl Field for Csg {
     }
     fn gradient(&self, p: Vec3) -> Vec3 {
         self.root.eval(p).1
+    }
+    fn lipschitz(&self) -> Option<f32> {
+        // Primitives are exact distances; min, max, the polynomial smooth min (whose
+        // gradient is a convex blend of unit gradients) and uniform scaling keep the
+        // bound at 1. Noise terrain has no bound.
+        exact(&self.root.op).then_some(1.0)
     }
 }
 

@@ -27,7 +27,16 @@ pub trait Field: Send + Sync {
         central_difference(|q| self.value(q), p, GRADIENT_STEP)
     }
 
-    /// Samples every corner of `grid` into `out` (x fastest, then y, then z).
+    /// A Lipschitz bound `L` (|f(a) - f(b)| <= L |a - b|), if the field has one.
+    /// Exact signed distances have `L = 1`. With a bound, sampling skips blocks of
+    /// the grid that are provably far from the surface; without one every corner is
+    /// evaluated.
+    fn lipschitz(&self) -> Option<f32> {
+        None
+    }
+
+    /// Samples the corners of `grid` with z in `z_range` into `out` (x fastest, then
+    /// y, then z).
     /// `out.len()` must equal `grid.corner_count()`. Fields with a faster batched
     /// evaluator override this; the default calls [`Field::value`] per corner.
     fn sample_grid(&self, grid: &Grid, z_range: std::ops::Range<u32>, out: &mut [f32]) {
@@ -62,6 +71,9 @@ impl<F: Field + ?Sized> Field for &F {
     fn sample_grid(&self, grid: &Grid, z_range: std::ops::Range<u32>, out: &mut [f32]) {
         (**self).sample_grid(grid, z_range, out)
     }
+    fn lipschitz(&self) -> Option<f32> {
+        (**self).lipschitz()
+    }
 }
 
 impl<F: Field + ?Sized> Field for Box<F> {
@@ -74,6 +86,9 @@ impl<F: Field + ?Sized> Field for Box<F> {
     fn sample_grid(&self, grid: &Grid, z_range: std::ops::Range<u32>, out: &mut [f32]) {
         (**self).sample_grid(grid, z_range, out)
     }
+    fn lipschitz(&self) -> Option<f32> {
+        (**self).lipschitz()
+    }
 }
 
 impl<F: Field + ?Sized> Field for std::sync::Arc<F> {
@@ -85,6 +100,9 @@ impl<F: Field + ?Sized> Field for std::sync::Arc<F> {
     }
     fn sample_grid(&self, grid: &Grid, z_range: std::ops::Range<u32>, out: &mut [f32]) {
         (**self).sample_grid(grid, z_range, out)
+    }
+    fn lipschitz(&self) -> Option<f32> {
+        (**self).lipschitz()
     }
 }
 

@@ -14,15 +14,18 @@ use crate::hermite::Hermite;
 use crate::qef::Qef;
 use glam::Vec3;
 
-/// Subtrees with at least this many active cells build their two halves with
-/// `rayon::join`. Below it the join overhead exceeds the work. The layout of the
-/// arena does not depend on it, so every thread count gives the same tree.
+/// Nodes above this depth with at least [`PARALLEL_CELLS`] active cells build their
+/// halves with `rayon::join`, each into its own arena that is appended afterwards
+/// (one copy per parallel level, so the depth is kept small: 16 tasks feed 2 to 8
+/// cores). Appending preserves the sequential layout, so every thread count gives
+/// the same tree.
+const PARALLEL_DEPTH: u32 = 4;
+/// See [`PARALLEL_DEPTH`]; below this the join overhead exceeds the work.
 const PARALLEL_CELLS: usize = 1024;
 
 struct Arena {
     nodes: Vec<KdNode>,
     comps: Vec<Comp>,
-    qefs: Vec<Qef>,
 }
 
 impl Arena {
@@ -30,7 +33,6 @@ impl Arena {
         Arena {
             nodes: Vec::new(),
             comps: Vec::new(),
-            qefs: Vec::new(),
         }
     }
 
@@ -48,7 +50,6 @@ impl Arena {
             n
         }));
         self.comps.extend(other.comps);
-        self.qefs.extend(other.qefs);
         noff
     }
 }
@@ -113,14 +114,18 @@ pub fn build(h: &Hermite) -> KdTree {
         }
         let mut ids: Vec<u32> = (0..h.cells.len() as u32).collect();
         let g = h.grid.cells;
+        let mut stack = Vec::new();
         build_node(
             &ctx,
             &mut arena,
+            &mut stack,
             &mut ids,
             [0, 0, 0],
             [g.x as u16, g.y as u16, g.z as u16],
             total,
+            0,
         )
+        .0
     };
     let comps = arena
         .comps
@@ -140,18 +145,23 @@ pub fn build(h: &Hermite) -> KdTree {
     }
 }
 
+/// Builds the subtree of `ids` in the box `min..max`. Returns the node and the
+/// number of component QEFs it pushed onto `stack` (its parent pops them).
+#[allow(clippy::too_many_arguments)]
 fn build_node(
     ctx: &Ctx,
     arena: &mut Arena,
+    stack: &mut Vec<Qef>,
     ids: &mut [u32],
     min: [u16; 3],
     max: [u16; 3],
     total: Qef,
-) -> u32 {
+    depth: u32,
+) -> (u32, usize) {
     let ext = [max[0] - min[0], max[1] - min[1], max[2] - min[2]];
     if ext == [1, 1, 1] {
         debug_assert_eq!(ids.len(), 1);
-        return cell_leaf(ctx, arena, ids[0], min, max);
+        return cell_leaf(ctx, arena, stack, ids[0], min, max);
     }
 
     // Axis: the largest per-dimension error E2 at the minimiser; among equals (a flat
@@ -237,42 +247,55 @@ fn build_node(
     let mut rtotal = total;
     rtotal -= &ltotal;
 
-    let children = if left_ids.len() + right_ids.len() >= PARALLEL_CELLS
+    let none = (NONE, 0);
+    let (l, r) = if depth < PARALLEL_DEPTH
+        && left_ids.len() + right_ids.len() >= PARALLEL_CELLS
         && !left_ids.is_empty()
         && !right_ids.is_empty()
     {
-        let ((la, l), (ra, r)) = rayon::join(
+        let ((la, ls, l), (ra, rs, r)) = rayon::join(
             || {
-                let mut a = Arena::new();
-                let l = build_node(ctx, &mut a, left_ids, min, lmax, ltotal);
-                (a, l)
+                let (mut a, mut st) = (Arena::new(), Vec::new());
+                let l = build_node(ctx, &mut a, &mut st, left_ids, min, lmax, ltotal, depth + 1);
+                (a, st, l)
             },
             || {
-                let mut a = Arena::new();
-                let r = build_node(ctx, &mut a, right_ids, rmin, max, rtotal);
-                (a, r)
+                let (mut a, mut st) = (Arena::new(), Vec::new());
+                let r = build_node(
+                    ctx,
+                    &mut a,
+                    &mut st,
+                    right_ids,
+                    rmin,
+                    max,
+                    rtotal,
+                    depth + 1,
+                );
+                (a, st, r)
             },
         );
         let lo = arena.append(la);
         let ro = arena.append(ra);
-        [l + lo, r + ro]
+        stack.extend(ls);
+        stack.extend(rs);
+        ((l.0 + lo, l.1), (r.0 + ro, r.1))
     } else {
         let l = if left_ids.is_empty() {
-            NONE
+            none
         } else {
-            build_node(ctx, arena, left_ids, min, lmax, ltotal)
+            build_node(ctx, arena, stack, left_ids, min, lmax, ltotal, depth + 1)
         };
         let r = if right_ids.is_empty() {
-            NONE
+            none
         } else {
-            build_node(ctx, arena, right_ids, rmin, max, rtotal)
+            build_node(ctx, arena, stack, right_ids, rmin, max, rtotal, depth + 1)
         };
-        [l, r]
+        (l, r)
     };
     let mut node = KdNode {
         min,
         max,
-        children,
+        children: [l.0, r.0],
         axis: axis as u8,
         config: 0,
         mask: 0,
@@ -282,12 +305,24 @@ fn build_node(
         comp_start: arena.comps.len() as u32,
         error: f32::INFINITY,
     };
-    cluster(ctx, arena, &mut node);
+    let popped = l.1 + r.1;
+    let base = stack.len() - popped;
+    let own = cluster(ctx, arena, &mut node, &stack[base..], left_ids);
+    stack.truncate(base);
+    let count = own.len();
+    stack.extend_from_slice(&own);
     arena.nodes.push(node);
-    (arena.nodes.len() - 1) as u32
+    ((arena.nodes.len() - 1) as u32, count)
 }
 
-fn cell_leaf(ctx: &Ctx, arena: &mut Arena, id: u32, min: [u16; 3], max: [u16; 3]) -> u32 {
+fn cell_leaf(
+    ctx: &Ctx,
+    arena: &mut Arena,
+    stack: &mut Vec<Qef>,
+    id: u32,
+    min: [u16; 3],
+    max: [u16; 3],
+) -> (u32, usize) {
     let c = ctx.h.cells[id as usize];
     let cc = ctx.tables.cell(c.config, c.mask);
     let lo = Vec3::new(min[0] as f32, min[1] as f32, min[2] as f32);
@@ -304,7 +339,7 @@ fn cell_leaf(ctx: &Ctx, arena: &mut Arena, id: u32, min: [u16; 3], max: [u16; 3]
             normal: ctx.h.patch_normal[p],
             parent: 0,
         });
-        arena.qefs.push(q);
+        stack.push(q);
     }
     arena.nodes.push(KdNode {
         min,
@@ -319,7 +354,7 @@ fn cell_leaf(ctx: &Ctx, arena: &mut Arena, id: u32, min: [u16; 3], max: [u16; 3]
         comp_start,
         error: error as f32,
     });
-    (arena.nodes.len() - 1) as u32
+    ((arena.nodes.len() - 1) as u32, cc.count as usize)
 }
 
 /// Tiny union-find over at most 8 child components.
@@ -355,26 +390,31 @@ impl Uf {
 /// four crossings of an ambiguous face (that would let two neighbours share two
 /// segments of one face). A node that fails stays unclusterable; its children are
 /// still leaves of any threshold they meet.
-fn cluster(ctx: &Ctx, arena: &mut Arena, node: &mut KdNode) {
+fn cluster(
+    ctx: &Ctx,
+    arena: &mut Arena,
+    node: &mut KdNode,
+    kid_qefs: &[Qef],
+    left_ids: &[u32],
+) -> Vec<Qef> {
     let nodes = &arena.nodes;
-    let kids: Vec<u32> = node
-        .children
-        .iter()
-        .cloned()
-        .filter(|&c| c != NONE)
-        .collect();
-    if kids.iter().any(|&c| !nodes[c as usize].clusterable) {
-        return;
+    let mut kids = [NONE; 2];
+    let mut nkids = 0;
+    for c in node.children {
+        if c != NONE {
+            if !nodes[c as usize].clusterable {
+                return Vec::new();
+            }
+            kids[nkids] = c;
+            nkids += 1;
+        }
     }
+    let kids = &kids[..nkids];
     let min = node.min.map(|v| v as u32);
     let max = node.max.map(|v| v as u32);
     let corner = |i: usize| {
         let o = crate::cell::corner_offset(i);
-        [
-            if o[0] == 1 { max[0] } else { min[0] },
-            if o[1] == 1 { max[1] } else { min[1] },
-            if o[2] == 1 { max[2] } else { min[2] },
-        ]
+        [0, 1, 2].map(|a| if o[a] == 1 { max[a] } else { min[a] })
     };
     let mut cfg = 0u8;
     for i in 0..8 {
@@ -383,7 +423,7 @@ fn cluster(ctx: &Ctx, arena: &mut Arena, node: &mut KdNode) {
         }
     }
     if cfg == 0 || cfg == 255 {
-        return;
+        return Vec::new();
     }
     // Every node edge: at most one sign change (for edges that lie inside one child
     // this already holds; checking all 12 is cheap and keeps the rule in one place).
@@ -393,7 +433,7 @@ fn cluster(ctx: &Ctx, arena: &mut Arena, node: &mut KdNode) {
         let c = corner(edge_corners(e).0);
         let (n, at) = ctx.sign_changes(c, a, max[a] - min[a]);
         if n > 1 {
-            return;
+            return Vec::new();
         }
         if n == 1 {
             edge_at[e] = at;
@@ -401,51 +441,45 @@ fn cluster(ctx: &Ctx, arena: &mut Arena, node: &mut KdNode) {
     }
 
     // Child components: child 0's first, then child 1's.
-    let counts: Vec<u8> = kids.iter().map(|&k| nodes[k as usize].comp_count).collect();
-    let offset_of = |k: usize| if k == 0 { 0u8 } else { counts[0] };
-    let total: u8 = counts.iter().sum();
+    let first_count = nodes[kids[0] as usize].comp_count;
+    let offset_of = |k: usize| if k == 0 { 0u8 } else { first_count };
+    let total = kid_qefs.len() as u8;
     let mut uf = Uf([0, 1, 2, 3, 4, 5, 6, 7]);
-    let child_of_cell = |cell: [u32; 3]| -> usize {
-        if kids.len() == 1 {
+    let comp_of = |cell: [u32; 3], edge: usize| -> u8 {
+        let k = if kids.len() == 1 {
             0
         } else {
             (cell[node.axis as usize] >= node.split as u32) as usize
-        }
-    };
-    let comp_of = |cell: [u32; 3], edge: usize| -> u8 {
-        let k = child_of_cell(cell);
+        };
         offset_of(k) + super::comp_in(nodes, &arena.comps, kids[k], cell, edge)
     };
 
     if kids.len() == 2 {
-        // Merge across every crossing edge lying in the split plane.
+        // Merge across every crossing edge in the split plane. Such an edge lies on
+        // the high face of a left cell next to the plane, and that cell's table says
+        // which of its face edges cross; the cell across the face is its partner.
         let w = node.axis as usize;
         let p = node.split as u32;
-        for d in [(w + 1) % 3, (w + 2) % 3] {
-            let o = 3 - w - d;
-            for go in min[o]..=max[o] {
-                for gd in min[d]..max[d] {
-                    let mut g = [0u32; 3];
-                    g[w] = p;
-                    g[d] = gd;
-                    g[o] = go;
-                    let mut h = g;
-                    h[d] += 1;
-                    if ctx.outside(g) == ctx.outside(h) {
-                        continue;
-                    }
-                    for co in [go.wrapping_sub(1), go] {
-                        if co < min[o] || co >= max[o] {
-                            continue;
-                        }
-                        let mut ca = g;
-                        ca[o] = co;
-                        ca[w] = p - 1;
-                        let mut cb = ca;
-                        cb[w] = p;
-                        let bit = |axis: usize, cell: &[u32; 3]| g[axis] - cell[axis];
-                        let ea = edge_index(d, bit((d + 1) % 3, &ca), bit((d + 2) % 3, &ca));
-                        let eb = edge_index(d, bit((d + 1) % 3, &cb), bit((d + 2) % 3, &cb));
+        for &id in left_ids {
+            let c = ctx.h.cells[id as usize];
+            if c.coord[w] as u32 + 1 != p {
+                continue;
+            }
+            let ca = c.coord.map(|v| v as u32);
+            let mut cb = ca;
+            cb[w] = p;
+            let cc = ctx.tables.cell(c.config, c.mask);
+            for d in [(w + 1) % 3, (w + 2) % 3] {
+                let (u, _) = ((d + 1) % 3, (d + 2) % 3);
+                for b_other in 0..2u32 {
+                    // Bits along u and v of edge d: the w bit is 1 on the left cell's
+                    // high face, 0 on the right cell's low face.
+                    let (ea, eb) = if u == w {
+                        (edge_index(d, 1, b_other), edge_index(d, 0, b_other))
+                    } else {
+                        (edge_index(d, b_other, 1), edge_index(d, b_other, 0))
+                    };
+                    if cc.edge_comp[ea] != NO_COMP {
                         uf.union(comp_of(ca, ea), comp_of(cb, eb));
                     }
                 }
@@ -466,7 +500,7 @@ fn cluster(ctx: &Ctx, arena: &mut Arena, node: &mut KdNode) {
         class[c as usize] = roots[r as usize];
     }
     if ncomp > 4 {
-        return;
+        return Vec::new();
     }
 
     // Equivalence to one cell.
@@ -490,14 +524,9 @@ fn cluster(ctx: &Ctx, arena: &mut Arena, node: &mut KdNode) {
     for f in 0..6 {
         if amb & (1 << f) != 0 {
             let fc = face_corners(f);
-            let fe: Vec<u8> = (0..4)
-                .map(|i| {
-                    let (a, b) = (fc[i], fc[(i + 1) % 4]);
-                    observed[edge_between(a, b)]
-                })
-                .collect();
+            let fe = [0, 1, 2, 3].map(|i| observed[edge_between(fc[i], fc[(i + 1) % 4])]);
             if fe.iter().all(|&c| c == fe[0]) {
-                return;
+                return Vec::new();
             }
         }
     }
@@ -515,41 +544,42 @@ fn cluster(ctx: &Ctx, arena: &mut Arena, node: &mut KdNode) {
         mask = (mask - 1) & amb;
     }
     if !matched {
-        return;
+        return Vec::new();
     }
 
     // Clusterable: sum QEFs per class, place vertices, link children.
     let lo = Vec3::new(min[0] as f32, min[1] as f32, min[2] as f32);
     let hi = Vec3::new(max[0] as f32, max[1] as f32, max[2] as f32);
-    let mut qefs = [Qef::default(); 4];
+    let mut qefs = vec![Qef::default(); ncomp as usize];
     let mut normals = [Vec3::ZERO; 4];
     let mut child_error = 0f32;
+    let kids = kids.to_vec();
     for (k, &kid) in kids.iter().enumerate() {
         let kn = arena.nodes[kid as usize];
         child_error = child_error.max(kn.error);
         for j in 0..kn.comp_count {
             let ci = (kn.comp_start + j as u32) as usize;
             let cls = class[(offset_of(k) + j) as usize];
-            qefs[cls as usize] += &arena.qefs[ci];
+            qefs[cls as usize] += &kid_qefs[(offset_of(k) + j) as usize];
             normals[cls as usize] += arena.comps[ci].normal;
             arena.comps[ci].parent = cls;
         }
     }
     let mut error = child_error;
     node.comp_start = arena.comps.len() as u32;
-    for c in 0..ncomp as usize {
-        let (vertex, e) = qefs[c].solve(lo, hi);
+    for (c, q) in qefs.iter().enumerate() {
+        let (vertex, e) = q.solve(lo, hi);
         error = error.max(e as f32);
         arena.comps.push(Comp {
             vertex,
             normal: normals[c],
             parent: 0,
         });
-        arena.qefs.push(qefs[c]);
     }
     node.comp_count = ncomp;
     node.clusterable = true;
     node.error = error;
+    qefs
 }
 
 fn edge_between(c0: usize, c1: usize) -> usize {
