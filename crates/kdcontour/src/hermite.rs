@@ -413,6 +413,9 @@ fn find_root(
     let (mut t0, mut f0, mut t1, mut f1) = (0f32, v0, 1f32, v1);
     let mut t = (f0 / (f0 - f1)).clamp(0.0, 1.0);
     let mut side = 0i8;
+    // Converged when the field is within 1e-5 cells of zero (distance units for
+    // SDFs) or the bracket is 1e-5 cells wide.
+    let tol = 1e-5 * grid.cell_size;
     for _ in 0..iterations {
         let wp = grid.to_world(p0 + dir * t);
         let ft = field.value(wp);
@@ -422,7 +425,7 @@ fn find_root(
                 value: ft,
             });
         }
-        if ft == 0.0 || (t1 - t0) < 1e-5 {
+        if ft.abs() <= tol || (t1 - t0) < 1e-5 {
             break;
         }
         if (ft >= 0.0) == (f0 >= 0.0) {

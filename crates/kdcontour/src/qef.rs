@@ -115,14 +115,72 @@ impl Qef {
         (x * x * diag - 2.0 * x * self.atc + self.ctc).max(DVec3::ZERO)
     }
 
-    /// The minimiser by truncated pseudo-inverse around the mass point (see
-    /// [`SVD_CUTOFF`]), clamped into the box `[lo, hi]`, and `E1` there.
+    /// The minimiser of `E1` within the box `[lo, hi]` and `E1` there.
+    ///
+    /// The unconstrained minimiser comes from a truncated pseudo-inverse around the
+    /// mass point (see [`SVD_CUTOFF`]). When it leaves the box (a crease that passes
+    /// just outside the cell), clamping its coordinates would pull it off the
+    /// surface. The box-constrained minimum is found instead, by solving with each
+    /// face, edge and corner of the box held fixed and keeping the feasible
+    /// candidate of least error.
     pub fn solve(&self, lo: Vec3, hi: Vec3) -> (Vec3, f64) {
-        let m = self.mass_point();
-        let rhs = self.atb - self.mul(m);
-        let (vals, vecs) = sym_eigen(self.ata);
+        let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
+        let m = self.mass_point().clamp(lo, hi);
+        let free = self.solve_fixed(m, [false; 3]);
+        let inside = |x: DVec3| x.cmpge(lo - 1e-9).all() && x.cmple(hi + 1e-9).all();
+        if inside(free) {
+            let x = free.clamp(lo, hi);
+            return (x.as_vec3(), self.error_at(x));
+        }
+        let mut best = free.clamp(lo, hi);
+        let mut best_err = self.error_at(best);
+        // Faces (one coordinate fixed), edges (two), corners (three).
+        for fixed_mask in 1..8u32 {
+            let fixed = [fixed_mask & 1 != 0, fixed_mask & 2 != 0, fixed_mask & 4 != 0];
+            let n_fixed = fixed.iter().filter(|&&f| f).count() as u32;
+            for sides in 0..(1u32 << n_fixed) {
+                let mut start = m;
+                let mut bit = 0;
+                for k in 0..3 {
+                    if fixed[k] {
+                        start[k] = if sides >> bit & 1 == 1 { hi[k] } else { lo[k] };
+                        bit += 1;
+                    }
+                }
+                let x = self.solve_fixed(start, fixed);
+                if inside(x) {
+                    let x = x.clamp(lo, hi);
+                    let e = self.error_at(x);
+                    if e < best_err {
+                        best = x;
+                        best_err = e;
+                    }
+                }
+            }
+        }
+        (best.as_vec3(), best_err)
+    }
+
+    /// Minimises `E1` over the coordinates not `fixed`, starting from `start` (whose
+    /// fixed coordinates stay), by truncated pseudo-inverse of the free block.
+    fn solve_fixed(&self, start: DVec3, fixed: [bool; 3]) -> DVec3 {
+        // Gradient of E1 at start is 2 (AᵀA start - Aᵀb); restricted to free axes.
+        let rhs = self.atb - self.mul(start);
+        let a = &self.ata;
+        let full = [[a[0], a[1], a[2]], [a[1], a[3], a[4]], [a[2], a[4], a[5]]];
+        let mut sub = [0f64; 6];
+        let idx = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
+        for (s, &(i, j)) in sub.iter_mut().zip(&idx) {
+            *s = if fixed[i] || fixed[j] { 0.0 } else { full[i][j] };
+        }
+        let rhs = DVec3::new(
+            if fixed[0] { 0.0 } else { rhs.x },
+            if fixed[1] { 0.0 } else { rhs.y },
+            if fixed[2] { 0.0 } else { rhs.z },
+        );
+        let (vals, vecs) = sym_eigen(sub);
         let max = vals.iter().cloned().fold(0.0f64, f64::max);
-        let mut x = m;
+        let mut x = start;
         if max > 0.0 {
             for k in 0..3 {
                 if vals[k] > SVD_CUTOFF * max {
@@ -131,8 +189,7 @@ impl Qef {
                 }
             }
         }
-        let x = x.clamp(lo.as_dvec3(), hi.as_dvec3());
-        (x.as_vec3(), self.error_at(x))
+        x
     }
 
     /// A cheap estimate of the minimal `E1` (a ridge-regularised solve around the mass
@@ -253,6 +310,25 @@ mod tests {
         );
         let (x, _) = q.solve(Vec3::ZERO, Vec3::ONE);
         assert!((x - Vec3::new(0.5, 0.5, 0.5)).length() < 0.01, "{x}");
+    }
+
+    #[test]
+    fn crease_outside_the_cell_stays_on_the_surface() {
+        // Two planes meeting along a line just outside the unit cell (x = 1.2): the
+        // free minimiser leaves the cell; the constrained one sits on the nearer
+        // plane's face of the cell, not at a clamped point off both planes.
+        let mut q = Qef::default();
+        let n1 = Vec3::new(1.0, 1.0, 0.0).normalize();
+        let n2 = Vec3::new(1.0, -1.0, 0.0).normalize();
+        let apex = Vec3::new(1.2, 0.5, 0.5);
+        for z in [0.2, 0.8] {
+            q.add_plane(apex + Vec3::new(-0.3, 0.3, z - 0.5), n1);
+            q.add_plane(apex + Vec3::new(-0.5, -0.5, z - 0.5), n2);
+        }
+        let (x, e) = q.solve(Vec3::ZERO, Vec3::ONE);
+        let clamped = Vec3::new(1.0, 0.5, 0.5);
+        assert!(e <= q.error_at(clamped.as_dvec3()) + 1e-12, "{x} {e}");
+        assert!(x.cmple(Vec3::ONE).all() && x.cmpge(Vec3::ZERO).all());
     }
 
     #[test]

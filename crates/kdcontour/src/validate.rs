@@ -36,6 +36,10 @@ pub struct MeshReport {
     pub max_error: f32,
     /// Mean of the same.
     pub mean_error: f32,
+    /// Largest |f| / |∇f| over vertices only, in cells (sharp features put vertices
+    /// on creases and corners, while centroids of triangles that bridge a crease lie
+    /// off it).
+    pub max_vertex_error: f32,
 }
 
 impl MeshReport {
@@ -157,6 +161,7 @@ pub fn validate(mesh: &IndexedMesh, field: Option<(&dyn Field, f32)>) -> MeshRep
                 n += 1;
             }
         }
+        r.max_vertex_error = max;
         for t in &tris {
             let c = (mesh.positions[t[0] as usize]
                 + mesh.positions[t[1] as usize]
