@@ -1,1 +1,78 @@
-fn main() {}
+//! Pipeline stages side by side: sampling + Hermite data, tree build, contouring,
+//! and re-extraction at a new threshold, on one and two threads.
+//!
+//! `cargo bench -p kdcontour --bench pipeline`
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use kdcontour::{hermite, kdtree, scenes, Grid, IndexedMesh, KdTree, Settings};
+use std::hint::black_box;
+use std::time::Duration;
+
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+}
+
+fn stages(c: &mut Criterion, scene: &str, res: u32, threshold: f32) {
+    let s = scenes::scene(scene).unwrap();
+    let field = &*s.field;
+    let grid = Grid::cube(1.0, res);
+    let settings = Settings::default();
+    let mut g = c.benchmark_group(format!("{scene}_{res}"));
+    g.sample_size(10)
+        .measurement_time(Duration::from_secs(4))
+        .warm_up_time(Duration::from_secs(1));
+    for threads in [1, 2] {
+        let p = pool(threads);
+        g.bench_function(BenchmarkId::new("sample", threads), |b| {
+            b.iter(|| {
+                p.install(|| {
+                    let v = hermite::sample(field, &grid, &settings).unwrap();
+                    black_box(hermite::Hermite::new(field, &grid, &v, &settings).unwrap())
+                })
+            })
+        });
+        let h = p.install(|| {
+            let v = hermite::sample(field, &grid, &settings).unwrap();
+            hermite::Hermite::new(field, &grid, &v, &settings).unwrap()
+        });
+        g.bench_function(BenchmarkId::new("build", threads), |b| {
+            b.iter(|| p.install(|| black_box(kdtree::build(&h))))
+        });
+        let tree = kdtree::build(&h);
+        let mut mesh = IndexedMesh::default();
+        g.bench_function(BenchmarkId::new("contour", threads), |b| {
+            b.iter(|| tree.extract(black_box(threshold), &mut mesh))
+        });
+        // A threshold change: re-walk the retained tree at another threshold.
+        let mut flip = false;
+        g.bench_function(BenchmarkId::new("reextract", threads), |b| {
+            b.iter(|| {
+                flip = !flip;
+                tree.extract(if flip { threshold * 10.0 } else { threshold }, &mut mesh)
+            })
+        });
+        g.bench_function(BenchmarkId::new("total", threads), |b| {
+            b.iter(|| {
+                p.install(|| {
+                    let t = KdTree::build(field, &grid, &settings).unwrap();
+                    let mut m = IndexedMesh::default();
+                    t.extract(threshold, &mut m);
+                    black_box(m.triangle_count())
+                })
+            })
+        });
+    }
+    g.finish();
+}
+
+fn pipeline(c: &mut Criterion) {
+    stages(c, "disk_pole", 128, 0.01);
+    stages(c, "terrain", 32, 0.01);
+    stages(c, "sphere", 64, 0.01);
+}
+
+criterion_group!(benches, pipeline);
+criterion_main!(benches);

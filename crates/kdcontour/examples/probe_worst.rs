@@ -18,7 +18,9 @@ fn main() {
             let (x, _) = q.solve(cc, cc + Vec3::ONE);
             let w = grid.to_world(x);
             let d = f.value(w).abs() / f.gradient(w).length() / grid.cell_size;
-            if d > worst.0 { worst = (d, ci, k); }
+            if d > worst.0 {
+                worst = (d, ci, k);
+            }
         }
     }
     let c = h.cells[worst.1];

@@ -120,45 +120,38 @@ impl Qef {
     /// The unconstrained minimiser comes from a truncated pseudo-inverse around the
     /// mass point (see [`SVD_CUTOFF`]). When it leaves the box (a crease that passes
     /// just outside the cell), clamping its coordinates would pull it off the
-    /// surface. The box-constrained minimum is found instead, by solving with each
-    /// face, edge and corner of the box held fixed and keeping the feasible
-    /// candidate of least error.
+    /// surface. Instead the coordinates that leave are held on the box and the
+    /// others re-solved, up to three rounds (an active-set method); the result is
+    /// never worse than the clamped point.
     pub fn solve(&self, lo: Vec3, hi: Vec3) -> (Vec3, f64) {
         let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
         let m = self.mass_point().clamp(lo, hi);
-        let free = self.solve_fixed(m, [false; 3]);
-        let inside = |x: DVec3| x.cmpge(lo - 1e-9).all() && x.cmple(hi + 1e-9).all();
-        if inside(free) {
-            let x = free.clamp(lo, hi);
+        let mut x = self.solve_fixed(m, [false; 3]);
+        let outside = |x: DVec3| [0, 1, 2].map(|k| x[k] < lo[k] - 1e-9 || x[k] > hi[k] + 1e-9);
+        let mut out = outside(x);
+        if !out.contains(&true) {
+            let x = x.clamp(lo, hi);
             return (x.as_vec3(), self.error_at(x));
         }
-        let mut best = free.clamp(lo, hi);
-        let mut best_err = self.error_at(best);
-        // Faces (one coordinate fixed), edges (two), corners (three).
-        for fixed_mask in 1..8u32 {
-            let fixed = [fixed_mask & 1 != 0, fixed_mask & 2 != 0, fixed_mask & 4 != 0];
-            let n_fixed = fixed.iter().filter(|&&f| f).count() as u32;
-            for sides in 0..(1u32 << n_fixed) {
-                let mut start = m;
-                let mut bit = 0;
-                for k in 0..3 {
-                    if fixed[k] {
-                        start[k] = if sides >> bit & 1 == 1 { hi[k] } else { lo[k] };
-                        bit += 1;
-                    }
-                }
-                let x = self.solve_fixed(start, fixed);
-                if inside(x) {
-                    let x = x.clamp(lo, hi);
-                    let e = self.error_at(x);
-                    if e < best_err {
-                        best = x;
-                        best_err = e;
-                    }
-                }
+        let clamped = x.clamp(lo, hi);
+        let mut fixed = [false; 3];
+        for _round in 0..3 {
+            for k in 0..3 {
+                fixed[k] |= out[k];
+            }
+            x = self.solve_fixed(x.clamp(lo, hi), fixed);
+            out = outside(x);
+            if !out.contains(&true) {
+                break;
             }
         }
-        (best.as_vec3(), best_err)
+        let x = x.clamp(lo, hi);
+        let (e, ec) = (self.error_at(x), self.error_at(clamped));
+        if e <= ec {
+            (x.as_vec3(), e)
+        } else {
+            (clamped.as_vec3(), ec)
+        }
     }
 
     /// Minimises `E1` over the coordinates not `fixed`, starting from `start` (whose
@@ -171,7 +164,11 @@ impl Qef {
         let mut sub = [0f64; 6];
         let idx = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
         for (s, &(i, j)) in sub.iter_mut().zip(&idx) {
-            *s = if fixed[i] || fixed[j] { 0.0 } else { full[i][j] };
+            *s = if fixed[i] || fixed[j] {
+                0.0
+            } else {
+                full[i][j]
+            };
         }
         let rhs = DVec3::new(
             if fixed[0] { 0.0 } else { rhs.x },

@@ -184,9 +184,12 @@ fn build_node(
 
     // Interval sums: one QEF per slab along the axis, then prefix sums.
     let mut prefix = vec![Qef::default(); len + 1];
+    let (mut occ_lo, mut occ_hi) = (len, 0usize);
     for &id in ids.iter() {
-        let c = ctx.h.cells[id as usize].coord[axis] - min[axis];
-        prefix[c as usize + 1] += &ctx.cell_qef[id as usize];
+        let c = (ctx.h.cells[id as usize].coord[axis] - min[axis]) as usize;
+        occ_lo = occ_lo.min(c);
+        occ_hi = occ_hi.max(c);
+        prefix[c + 1] += &ctx.cell_qef[id as usize];
     }
     for i in 1..=len {
         let prev = prefix[i - 1];
@@ -200,7 +203,9 @@ fn build_node(
     };
     // Position: binary search for the split whose halves have equal E1 (the left
     // half's error grows with s, the right's shrinks). Where a run of positions is
-    // equal within tolerance, take the one nearest the middle.
+    // equal within tolerance (flat surface: every E1 is zero), take the one nearest
+    // the middle of the slabs that hold cells, so neither side is empty unless all
+    // cells share one slab (then the split cuts the empty rest off in one step).
     let tol = 1e-9 + 1e-6 * total.fast_min_error();
     let first = |pred: &dyn Fn(f64) -> bool| {
         let (mut lo, mut hi) = (1usize, len);
@@ -216,8 +221,17 @@ fn build_node(
     };
     let s1 = first(&|d| d >= -tol);
     let s2 = first(&|d| d > tol) - 1;
+    let occupied_mid = if occ_lo == occ_hi {
+        if occ_lo + 1 < len {
+            occ_lo + 1
+        } else {
+            occ_lo
+        }
+    } else {
+        (occ_lo + occ_hi + 1).div_ceil(2)
+    };
     let s = if s1 <= s2 && s1 < len {
-        (len / 2).clamp(s1, s2.min(len - 1))
+        occupied_mid.clamp(s1, s2.min(len - 1)).max(1)
     } else if s1 >= len {
         len - 1
     } else if s1 > 1 && diff(s1 - 1).abs() < diff(s1).abs() {

@@ -1,0 +1,247 @@
+//! Bad input gets a clear error a user can act on, never a panic or a garbage mesh.
+
+use glam::Vec3;
+use kdcontour::field::FnField;
+use kdcontour::{CsgNode, Error, Grid, KdTree, SceneError, Settings};
+
+fn build(f: impl Fn(Vec3) -> f32 + Send + Sync, grid: Grid, s: &Settings) -> Result<KdTree, Error> {
+    KdTree::build(&FnField(f), &grid, s)
+}
+
+#[test]
+fn nan_field_is_an_error_naming_the_point() {
+    let err = build(
+        |p| {
+            if p.x > 0.3 {
+                f32::NAN
+            } else {
+                p.length() - 0.5
+            }
+        },
+        Grid::cube(1.0, 16),
+        &Settings::default(),
+    )
+    .err()
+    .expect("NaN must be an error");
+    match &err {
+        Error::NonFiniteSample { value, position } => {
+            assert!(value.is_nan());
+            assert!(position.x > 0.3);
+        }
+        other => panic!("{other:?}"),
+    }
+    let msg = err.to_string();
+    assert!(msg.contains("NaN") && msg.contains("finite"), "{msg}");
+}
+
+#[test]
+fn infinite_field_is_an_error() {
+    let err = build(
+        |p| 1.0 / (p.y - 0.1).max(0.0) - 3.0,
+        Grid::cube(1.0, 16),
+        &Settings::default(),
+    )
+    .err();
+    assert!(
+        matches!(err, Some(Error::NonFiniteSample { value, .. }) if value.is_infinite()),
+        "{err:?}"
+    );
+}
+
+#[test]
+fn nan_only_between_samples_is_still_caught() {
+    // Finite at every corner, NaN where the crossing search evaluates the field:
+    // the crossings of a sphere lie between corners.
+    let err = build(
+        |p| {
+            let d = p.length() - 0.5;
+            if d.abs() < 0.02 && d != 0.0 && (p.x * 16.0).fract().abs() > 0.05 {
+                f32::NAN
+            } else {
+                d
+            }
+        },
+        Grid::cube(1.0, 16),
+        &Settings::default(),
+    )
+    .err();
+    assert!(
+        matches!(err, Some(Error::NonFiniteSample { .. })),
+        "{err:?}"
+    );
+}
+
+#[test]
+fn zero_resolution_and_degenerate_grids() {
+    let err = build(
+        |p| p.length() - 0.5,
+        Grid::cube(1.0, 0),
+        &Settings::default(),
+    )
+    .err()
+    .unwrap();
+    assert!(err.to_string().contains("res must be >= 1"), "{err}");
+    let mut g = Grid::cube(1.0, 8);
+    g.cell_size = -1.0;
+    let err = build(|p| p.length() - 0.5, g, &Settings::default())
+        .err()
+        .unwrap();
+    assert!(err.to_string().contains("cell size"), "{err}");
+    g.cell_size = f32::NAN;
+    assert!(matches!(
+        build(|p| p.length(), g, &Settings::default()),
+        Err(Error::InvalidGrid(_))
+    ));
+    let mut g = Grid::cube(1.0, 8);
+    g.origin.y = f32::INFINITY;
+    assert!(matches!(
+        build(|p| p.length(), g, &Settings::default()),
+        Err(Error::InvalidGrid(_))
+    ));
+}
+
+#[test]
+fn grid_over_the_memory_budget_is_refused_before_allocating() {
+    let s = Settings {
+        memory_budget: 64 << 20,
+        ..Default::default()
+    };
+    // 4096^3 cells would need hundreds of GB; the check must come first.
+    let err = build(|p| p.length() - 0.5, Grid::cube(1.0, 4096), &s)
+        .err()
+        .unwrap();
+    match &err {
+        Error::MemoryBudget { budget, needed, .. } => assert!(needed > budget),
+        other => panic!("{other:?}"),
+    }
+    assert!(err.to_string().contains("memory budget"), "{err}");
+    // A small grid fits the same budget.
+    assert!(build(|p| p.length() - 0.5, Grid::cube(1.0, 32), &s).is_ok());
+}
+
+#[test]
+fn out_of_range_settings() {
+    let s = Settings {
+        threads: 100_000,
+        ..Default::default()
+    };
+    let err = build(|p| p.length() - 0.5, Grid::cube(1.0, 8), &s)
+        .err()
+        .unwrap();
+    assert!(
+        matches!(
+            err,
+            Error::InvalidSetting {
+                name: "threads",
+                ..
+            }
+        ),
+        "{err}"
+    );
+    let s = Settings {
+        root_iterations: 1000,
+        ..Default::default()
+    };
+    let err = build(|p| p.length() - 0.5, Grid::cube(1.0, 8), &s)
+        .err()
+        .unwrap();
+    assert!(err.to_string().contains("root_iterations"), "{err}");
+}
+
+#[test]
+fn empty_volumes_give_empty_meshes() {
+    for f in [
+        (|_p: Vec3| 1.0) as fn(Vec3) -> f32,
+        |_p| -1.0,
+        |p| p.length() - 5.0,                      // all inside
+        |p| (p - Vec3::splat(3.0)).length() - 0.5, // sphere outside the grid
+    ] {
+        let tree = build(f, Grid::cube(1.0, 16), &Settings::default()).unwrap();
+        let m = tree.mesh(0.01);
+        assert!(m.is_empty() && m.positions.is_empty());
+        assert!(tree.mesh(-1.0).is_empty());
+    }
+}
+
+#[test]
+fn one_cell_grid_works() {
+    let tree = build(
+        |p| p.length() - 0.5,
+        Grid::cube(1.0, 1),
+        &Settings::default(),
+    )
+    .unwrap();
+    // One cell with every corner outside: nothing. A corner inside: an open patch.
+    assert!(tree.mesh(-1.0).is_empty());
+    let tree = build(
+        |p| (p - Vec3::splat(-1.0)).length() - 0.5,
+        Grid::cube(1.0, 1),
+        &Settings::default(),
+    )
+    .unwrap();
+    // The patch's only crossing edges lie on the grid boundary: no quad can form.
+    assert!(tree.mesh(-1.0).is_empty());
+}
+
+#[test]
+fn malformed_scene_files_report_line_and_column() {
+    let cases = [
+        ("{\n  \"type\": \"sphere\",\n  \"radius\": 0.5,\n", "EOF"),
+        (
+            "{\"type\": \"sphere\", \"radius\": \"big\"}",
+            "invalid type",
+        ),
+        ("{\"type\": \"sphere\"}", "missing field `radius`"),
+        (
+            "{\"type\": \"sphere\", \"radius\": 0.5, \"colour\": 1}",
+            "unknown field `colour`",
+        ),
+        ("{\"type\": \"blob\"}", "unknown variant `blob`"),
+        ("[1, 2]", "invalid type"),
+        ("", "EOF"),
+    ];
+    for (text, needle) in cases {
+        let err = CsgNode::from_json(text).unwrap_err();
+        let msg = err.to_string();
+        assert!(matches!(err, SceneError::Syntax { .. }), "{text}: {err:?}");
+        assert!(msg.contains("line") && msg.contains("column"), "{msg}");
+        assert!(msg.contains(needle), "{text}: {msg}");
+    }
+}
+
+#[test]
+fn semantically_wrong_scene_files_name_the_node() {
+    let cases = [
+        (r#"{"type":"sphere","radius":-1}"#, "root.radius"),
+        (
+            r#"{"type":"torus","major_radius":0.2,"minor_radius":0.3}"#,
+            "root.minor_radius",
+        ),
+        (r#"{"type":"union","children":[]}"#, "root.children"),
+        (
+            r#"{"type":"difference","a":{"type":"sphere","radius":1},"b":{"type":"box","half_extents":[1,0,1]}}"#,
+            "root.b.half_extents.y",
+        ),
+        (
+            r#"{"type":"transform","scale":0,"child":{"type":"sphere","radius":1}}"#,
+            "root.scale",
+        ),
+        (r#"{"type":"plane","normal":[0,0,0]}"#, "root.normal"),
+        (
+            r#"{"type":"heightfield","amplitude":1,"frequency":1,"octaves":40}"#,
+            "octaves",
+        ),
+        (
+            r#"{"type":"rounded_box","half_extents":[0.1,0.5,0.5],"radius":0.2}"#,
+            "root.half_extents.x",
+        ),
+    ];
+    for (text, path) in cases {
+        let err = CsgNode::from_json(text).unwrap_err();
+        assert!(
+            matches!(err, SceneError::Semantic { .. }),
+            "{text}: {err:?}"
+        );
+        assert!(err.to_string().contains(path), "{text}: {err}");
+    }
+}
