@@ -5,3 +5,8 @@
 //! downstream code can start against its API.
 
 pub use kdcontour;
+
+/// The README's code, compiled and run as a doctest so it cannot drift.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

@@ -41,7 +41,7 @@ pub fn uniform_dmc(h: &Hermite) -> IndexedMesh {
                     let mut e = g;
                     e[d] += 1;
                     let inside_low = !h.is_outside(g);
-                    if inside_low == !h.is_outside(e) {
+                    if inside_low != h.is_outside(e) {
                         continue;
                     }
                     let (u, v) = ((d + 1) % 3, (d + 2) % 3);

@@ -170,7 +170,11 @@ fn sample_skipping(field: &dyn Field, grid: &Grid, l: f32, values: &mut [f32]) {
 /// Blocks (of `b` cells) that contain corner coordinate `i`.
 fn block_range(i: u32, b: u32, nb: u32) -> std::ops::Range<u32> {
     let hi = (i / b).min(nb - 1);
-    let lo = if i % b == 0 && i > 0 { i / b - 1 } else { hi };
+    let lo = if i.is_multiple_of(b) && i > 0 {
+        i / b - 1
+    } else {
+        hi
+    };
     lo..hi + 1
 }
 

@@ -135,9 +135,13 @@ pub fn build(h: &Hermite) -> KdTree {
             c
         })
         .collect();
+    let mut nodes = arena.nodes;
+    nodes.shrink_to_fit();
+    let mut comps: Vec<Comp> = comps;
+    comps.shrink_to_fit();
     KdTree {
         grid: h.grid,
-        nodes: arena.nodes,
+        nodes,
         comps,
         root,
         outside: h.outside.clone(),
