@@ -72,13 +72,17 @@ pub fn check_grid(grid: &Grid, settings: &Settings) -> Result<()> {
 /// blocks are rarely far enough), 2 evaluates 21.3% / 15.3% (too many centres).
 const SKIP_BLOCK: u32 = 4;
 
+/// The magnitude [`sample`] gives corners it proved far from the surface without
+/// evaluating them (their sign is exact, their value is not).
+pub const FAR: f32 = f32::MAX;
+
 /// Samples `field` at every corner of `grid`, in parallel over z slabs.
 ///
 /// With a Lipschitz bound `L`, the field is first evaluated at the centre of every
 /// block of `SKIP_BLOCK`³ cells; a block whose centre value exceeds `L` times its
-/// half-diagonal holds no surface, and its corners get the conservative value
-/// `v_c - L |p - c|` (same sign, never zero) instead of an evaluation. Those values
-/// only ever decide signs; crossings are re-evaluated on the field.
+/// half-diagonal holds no surface, and its corners get [`FAR`] with the centre's
+/// sign instead of an evaluation. Only their sign is meaningful: a crossing next to
+/// such a corner evaluates it on the field.
 pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Vec<f32>> {
     check_grid(grid, settings)?;
     let c = grid.corners();
@@ -118,7 +122,7 @@ fn sample_skipping(field: &dyn Field, grid: &Grid, l: f32, values: &mut [f32]) {
     let nb = (n + UVec3::splat(b - 1)) / b;
     let half_diag = (b as f32 * 0.5) * 3f32.sqrt() * grid.cell_size;
     // Block centre values, or NaN where the block may hold surface.
-    let centres: Vec<(Vec3, f32)> = (0..nb.z)
+    let centres: Vec<f32> = (0..nb.z)
         .into_par_iter()
         .flat_map_iter(|bz| {
             (0..nb.y).flat_map(move |by| {
@@ -129,7 +133,11 @@ fn sample_skipping(field: &dyn Field, grid: &Grid, l: f32, values: &mut [f32]) {
                     let half = (hi - lo).as_vec3().length() * 0.5 * grid.cell_size;
                     let v = field.value(centre);
                     let far = v.is_finite() && v.abs() > l * half.min(half_diag) * 1.001 + 1e-7;
-                    (centre, if far { v } else { f32::NAN })
+                    if far {
+                        v
+                    } else {
+                        f32::NAN
+                    }
                 })
             })
         })
@@ -140,27 +148,30 @@ fn sample_skipping(field: &dyn Field, grid: &Grid, l: f32, values: &mut [f32]) {
         .enumerate()
         .for_each(|(z, out)| {
             let z = z as u32;
+            // Per row, the sign known from any far block of each x block column.
+            let mut row_sign = vec![f32::NAN; nb.x as usize];
             for y in 0..c.y {
-                for x in 0..c.x {
-                    let p = grid.corner_pos(UVec3::new(x, y, z));
-                    // A corner on block boundaries lies in up to eight blocks; any one
-                    // far block decides its sign.
-                    let mut known = None;
-                    'blocks: for bz in block_range(z, b, nb.z) {
-                        for by in block_range(y, b, nb.y) {
-                            for bx in block_range(x, b, nb.x) {
-                                let (centre, v) = centres[(bx + nb.x * (by + nb.y * bz)) as usize];
-                                if !v.is_nan() {
-                                    let bound = v.abs() - l * p.distance(centre);
-                                    known = Some(v.signum() * bound.max(1e-7));
-                                    break 'blocks;
-                                }
+                row_sign.fill(f32::NAN);
+                for bz in block_range(z, b, nb.z) {
+                    for by in block_range(y, b, nb.y) {
+                        let base = (nb.x * (by + nb.y * bz)) as usize;
+                        for (bx, known) in row_sign.iter_mut().enumerate() {
+                            let v = centres[base + bx];
+                            if known.is_nan() && !v.is_nan() {
+                                *known = FAR.copysign(v);
                             }
                         }
                     }
+                }
+                for x in 0..c.x {
+                    // A corner on block boundaries lies in up to eight blocks; any
+                    // one far block decides its sign.
+                    let known = block_range(x, b, nb.x)
+                        .map(|bx| row_sign[bx as usize])
+                        .find(|v| !v.is_nan());
                     out[(x + c.x * y) as usize] = match known {
                         Some(v) => v,
-                        None => field.value(p),
+                        None => field.value(grid.corner_pos(UVec3::new(x, y, z))),
                     };
                 }
             }
@@ -214,9 +225,30 @@ impl Hermite {
             .into_par_iter()
             .map(|z| {
                 let mut out = Vec::new();
+                let cx = corners.x as usize;
+                let mut signs = vec![0u8; cx];
+                let mut row_cfg = vec![0u8; cx];
                 for y in 0..n.y {
+                    // Sign bits of the four corner rows around this row of cells,
+                    // combined column by column (vectorises; no index arithmetic).
+                    row_cfg.fill(0);
+                    for (k, (dy, dz)) in [(0u32, 0u32), (1, 0), (0, 1), (1, 1)]
+                        .into_iter()
+                        .enumerate()
+                    {
+                        let start = cidx(0, y + dy, z + dz);
+                        let row = &values[start..start + cx];
+                        for (s, v) in signs.iter_mut().zip(row) {
+                            *s = (*v >= 0.0) as u8;
+                        }
+                        // Corner bit: x offset 0 -> bit 2k', x offset 1 -> bit 2k'+1,
+                        // with k' = dy + 2 dz = k.
+                        for x in 0..cx - 1 {
+                            row_cfg[x] |= (signs[x] | (signs[x + 1] << 1)) << (2 * k);
+                        }
+                    }
                     for x in 0..n.x {
-                        let cfg = config_at(x, y, z);
+                        let cfg = row_cfg[x as usize];
                         if cfg == 0 || cfg == 255 {
                             continue;
                         }
@@ -272,7 +304,6 @@ impl Hermite {
         // that has it on its low side in both other axes, or to the last cell along
         // an axis at the grid's high boundary.
         let iterations = settings.root_iterations;
-        let skipped = field.lipschitz().is_some();
         let crossing_lists: Vec<Result<Vec<Crossing>>> = cells
             .par_chunks(1024)
             .enumerate()
@@ -300,15 +331,14 @@ impl Hermite {
                         let mut v0 = values[cidx(g[0], g[1], g[2])];
                         let mut v1 = values[cidx(h[0], h[1], h[2])];
                         let p0 = UVec3::from(g).as_vec3();
-                        if skipped {
-                            // Skipped corners hold bounds, not values: the crossing
-                            // needs the real ones (signs are unchanged).
-                            v0 = field.value(grid.to_world(p0));
-                            v1 = field.value(grid.to_world(UVec3::from(h).as_vec3()));
-                            if (v0 >= 0.0) == (v1 >= 0.0) {
-                                v0 = values[cidx(g[0], g[1], g[2])];
-                                v1 = values[cidx(h[0], h[1], h[2])];
-                            }
+                        // Corners skipped by sampling hold only a sign: evaluate them.
+                        if v0.abs() == FAR {
+                            v0 = field.value(grid.to_world(p0)).copysign(v0);
+                        }
+                        if v1.abs() == FAR {
+                            v1 = field
+                                .value(grid.to_world(UVec3::from(h).as_vec3()))
+                                .copysign(v1);
                         }
                         let dir = Vec3::AXES[a];
                         let t = find_root(field, grid, p0, dir, v0, v1, iterations)?;

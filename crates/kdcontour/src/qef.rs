@@ -37,6 +37,19 @@ pub struct Qef {
     pub ctc: DVec3,
 }
 
+impl Qef {
+    /// The empty QEF (no planes).
+    pub const ZERO: Qef = Qef {
+        ata: [0.0; 6],
+        atb: DVec3::ZERO,
+        btb: 0.0,
+        mass: DVec3::ZERO,
+        count: 0.0,
+        atc: DVec3::ZERO,
+        ctc: DVec3::ZERO,
+    };
+}
+
 impl std::ops::AddAssign<&Qef> for Qef {
     fn add_assign(&mut self, o: &Qef) {
         for i in 0..6 {

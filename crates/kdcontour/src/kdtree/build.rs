@@ -20,6 +20,9 @@ use glam::Vec3;
 /// cores). Appending preserves the sequential layout, so every thread count gives
 /// the same tree.
 const PARALLEL_DEPTH: u32 = 4;
+thread_local! {
+    static SCRATCH: std::cell::RefCell<Vec<Qef>> = const { std::cell::RefCell::new(Vec::new()) };
+}
 /// See [`PARALLEL_DEPTH`]; below this the join overhead exceeds the work.
 const PARALLEL_CELLS: usize = 1024;
 
@@ -187,7 +190,11 @@ fn build_node(
     let len = ext[axis] as usize;
 
     // Interval sums: one QEF per slab along the axis, then prefix sums.
-    let mut prefix = vec![Qef::default(); len + 1];
+    // Slab sums in a per-thread scratch buffer (no allocation per node; the
+    // buffer is free again before the recursion below).
+    let mut prefix = SCRATCH.with(|s| std::mem::take(&mut *s.borrow_mut()));
+    prefix.clear();
+    prefix.resize(len + 1, Qef::ZERO);
     let (mut occ_lo, mut occ_hi) = (len, 0usize);
     for &id in ids.iter() {
         let c = (ctx.h.cells[id as usize].coord[axis] - min[axis]) as usize;
@@ -264,6 +271,7 @@ fn build_node(
     let ltotal = prefix[s];
     let mut rtotal = total;
     rtotal -= &ltotal;
+    SCRATCH.with(|sc| *sc.borrow_mut() = prefix);
 
     let none = (NONE, 0);
     let (l, r) = if depth < PARALLEL_DEPTH
@@ -327,8 +335,8 @@ fn build_node(
     let base = stack.len() - popped;
     let own = cluster(ctx, arena, &mut node, &stack[base..], left_ids);
     stack.truncate(base);
-    let count = own.len();
-    stack.extend_from_slice(&own);
+    let count = own.1;
+    stack.extend_from_slice(&own.0[..count]);
     arena.nodes.push(node);
     ((arena.nodes.len() - 1) as u32, count)
 }
@@ -414,14 +422,14 @@ fn cluster(
     node: &mut KdNode,
     kid_qefs: &[Qef],
     left_ids: &[u32],
-) -> Vec<Qef> {
+) -> ([Qef; 4], usize) {
     let nodes = &arena.nodes;
     let mut kids = [NONE; 2];
     let mut nkids = 0;
     for c in node.children {
         if c != NONE {
             if !nodes[c as usize].clusterable {
-                return Vec::new();
+                return NOT_CLUSTERABLE;
             }
             kids[nkids] = c;
             nkids += 1;
@@ -441,7 +449,7 @@ fn cluster(
         }
     }
     if cfg == 0 || cfg == 255 {
-        return Vec::new();
+        return NOT_CLUSTERABLE;
     }
     // Every node edge: at most one sign change (for edges that lie inside one child
     // this already holds; checking all 12 is cheap and keeps the rule in one place).
@@ -451,7 +459,7 @@ fn cluster(
         let c = corner(edge_corners(e).0);
         let (n, at) = ctx.sign_changes(c, a, max[a] - min[a]);
         if n > 1 {
-            return Vec::new();
+            return NOT_CLUSTERABLE;
         }
         if n == 1 {
             edge_at[e] = at;
@@ -518,7 +526,7 @@ fn cluster(
         class[c as usize] = roots[r as usize];
     }
     if ncomp > 4 {
-        return Vec::new();
+        return NOT_CLUSTERABLE;
     }
 
     // Equivalence to one cell.
@@ -544,7 +552,7 @@ fn cluster(
             let fc = face_corners(f);
             let fe = [0, 1, 2, 3].map(|i| observed[edge_between(fc[i], fc[(i + 1) % 4])]);
             if fe.iter().all(|&c| c == fe[0]) {
-                return Vec::new();
+                return NOT_CLUSTERABLE;
             }
         }
     }
@@ -562,13 +570,13 @@ fn cluster(
         mask = (mask - 1) & amb;
     }
     if !matched {
-        return Vec::new();
+        return NOT_CLUSTERABLE;
     }
 
     // Clusterable: sum QEFs per class, place vertices, link children.
     let lo = Vec3::new(min[0] as f32, min[1] as f32, min[2] as f32);
     let hi = Vec3::new(max[0] as f32, max[1] as f32, max[2] as f32);
-    let mut qefs = vec![Qef::default(); ncomp as usize];
+    let mut qefs = [Qef::default(); 4];
     let mut normals = [Vec3::ZERO; 4];
     let mut child_error = 0f32;
     let kids = kids.to_vec();
@@ -585,7 +593,7 @@ fn cluster(
     }
     let mut error = child_error;
     node.comp_start = arena.comps.len() as u32;
-    for (c, q) in qefs.iter().enumerate() {
+    for (c, q) in qefs[..ncomp as usize].iter().enumerate() {
         let (vertex, e) = q.solve(lo, hi);
         error = error.max(e as f32);
         arena.comps.push(Comp {
@@ -597,8 +605,10 @@ fn cluster(
     node.comp_count = ncomp;
     node.clusterable = true;
     node.error = error;
-    qefs
+    (qefs, ncomp as usize)
 }
+
+const NOT_CLUSTERABLE: ([Qef; 4], usize) = ([Qef::ZERO; 4], 0);
 
 fn edge_between(c0: usize, c1: usize) -> usize {
     let a = (c0 ^ c1).trailing_zeros() as usize;
