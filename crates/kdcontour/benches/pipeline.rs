@@ -68,11 +68,69 @@ fn stages(c: &mut Criterion, scene: &str, res: u32, threshold: f32) {
     g.finish();
 }
 
+/// A streaming terrain chunk: 32³ cells of 1 m over an fBm height field (batched
+/// column sampling, no closing box), as the Bevy terrain meshes it.
+fn terrain_chunk(c: &mut Criterion) {
+    use kdcontour::field::terrain::{Heightfield, HeightfieldParams};
+    let field = Heightfield::new(HeightfieldParams {
+        seed: 3,
+        base: 0.0,
+        amplitude: 10.0,
+        frequency: 0.015,
+        octaves: 5,
+    });
+    let grid = Grid {
+        origin: glam::Vec3::new(0.0, -16.0, 0.0),
+        cell_size: 1.0,
+        cells: glam::UVec3::splat(32),
+    };
+    let settings = Settings::default();
+    let mut g = c.benchmark_group("terrain_chunk_32");
+    g.sample_size(20)
+        .measurement_time(Duration::from_secs(3))
+        .warm_up_time(Duration::from_secs(1));
+    let p = pool(1);
+    let tree = p.install(|| KdTree::build(&field, &grid, &settings).unwrap());
+    let mut mesh = IndexedMesh::default();
+    tree.extract(0.01, &mut mesh);
+    println!(
+        "terrain chunk: {} active cells, {} triangles at 0.01, {} bytes retained",
+        tree.stats.active_cells,
+        mesh.triangle_count(),
+        tree.retained_bytes()
+    );
+    g.bench_function("sample/1", |b| {
+        b.iter(|| {
+            p.install(|| {
+                let v = hermite::sample(&field, &grid, &settings).unwrap();
+                black_box(hermite::Hermite::new(&field, &grid, &v, &settings).unwrap())
+            })
+        })
+    });
+    g.bench_function("total/1", |b| {
+        b.iter(|| {
+            p.install(|| {
+                let t = KdTree::build(&field, &grid, &settings).unwrap();
+                t.extract(0.01, &mut mesh);
+                black_box(mesh.triangle_count())
+            })
+        })
+    });
+    g.bench_function("reextract/1", |b| {
+        let mut flip = false;
+        b.iter(|| {
+            flip = !flip;
+            tree.extract(if flip { 0.1 } else { 0.01 }, &mut mesh)
+        })
+    });
+    g.finish();
+}
+
 fn pipeline(c: &mut Criterion) {
     stages(c, "disk_pole", 128, 0.01);
     stages(c, "terrain", 32, 0.01);
     stages(c, "sphere", 64, 0.01);
 }
 
-criterion_group!(benches, pipeline);
+criterion_group!(benches, terrain_chunk, pipeline);
 criterion_main!(benches);

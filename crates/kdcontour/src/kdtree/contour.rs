@@ -151,7 +151,7 @@ impl Walker<'_> {
     /// The four nodes around the segment `[lo, hi]` along axis `d` through `line`
     /// (its coordinates on the two other axes).
     fn edge_proc(&mut self, slots: [u32; 4], d: usize, line: [u16; 3], lo: u16, hi: u16) {
-        if slots.contains(&NONE) || lo >= hi {
+        if slots.contains(&NONE) || lo >= hi || !self.has_crossing(d, line, lo, hi) {
             return;
         }
         // Refine the largest non-leaf.
@@ -213,6 +213,21 @@ impl Walker<'_> {
             replace(slots, &|_| hc)
         };
         self.edge_proc(next, d, line, lo, hi);
+    }
+
+    /// Whether the segment `[lo, hi]` along `d` through `line` changes sign. Most
+    /// segments the walk meets do not, and they need no refinement at all.
+    fn has_crossing(&self, d: usize, line: [u16; 3], lo: u16, hi: u16) -> bool {
+        let mut g = [line[0] as u32, line[1] as u32, line[2] as u32];
+        g[d] = lo as u32;
+        let first = self.tree.is_outside(g);
+        for t in lo as u32 + 1..=hi as u32 {
+            g[d] = t;
+            if self.tree.is_outside(g) != first {
+                return true;
+            }
+        }
+        false
     }
 
     fn emit(&mut self, slots: [u32; 4], d: usize, line: [u16; 3], lo: u16, hi: u16) {

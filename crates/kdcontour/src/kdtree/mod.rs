@@ -115,6 +115,10 @@ impl KdTree {
 /// Walks from clusterable node `x` down to `cell`, then back up through the
 /// components' `parent` links.
 pub(crate) fn comp_in(nodes: &[KdNode], comps: &[Comp], x: u32, cell: [u32; 3], edge: usize) -> u8 {
+    // Most clustered nodes have one component: nothing to look up.
+    if nodes[x as usize].comp_count == 1 {
+        return 0;
+    }
     let mut path = [0u32; 128];
     let mut depth = 0;
     let mut n = x;
