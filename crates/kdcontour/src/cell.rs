@@ -105,7 +105,7 @@ impl CellTables {
             let outside = |c: usize| (config >> c) & 1 == 1;
             for f in 0..6 {
                 let fc = face_corners(f);
-                let s: Vec<bool> = fc.iter().map(|&c| outside(c)).collect();
+                let s: [bool; 4] = fc.map(outside);
                 if s[0] == s[2] && s[1] == s[3] && s[0] != s[1] {
                     ambiguous[config] |= 1 << f;
                     let (a, c) = if s[0] { (fc[0], fc[2]) } else { (fc[1], fc[3]) };
@@ -127,10 +127,16 @@ impl CellTables {
                 }
             }
         }
+        // Mask bits only matter on ambiguous faces: compute each distinct entry once.
         let mut comps = vec![CellComps::default(); 256 * 64];
         for config in 0..256usize {
+            let amb = ambiguous[config] as usize;
             for mask in 0..64usize {
-                comps[config * 64 + mask] = Self::components(config, mask);
+                comps[config * 64 + mask] = if mask & !amb == 0 {
+                    Self::components(config, mask)
+                } else {
+                    comps[config * 64 + (mask & amb)]
+                };
             }
         }
         CellTables {
@@ -146,8 +152,8 @@ impl CellTables {
             let (a, b) = edge_corners(e);
             outside(a) != outside(b)
         };
-        let mut parent: Vec<usize> = (0..12).collect();
-        let union = |p: &mut Vec<usize>, a: usize, b: usize| {
+        let mut parent: [usize; 12] = std::array::from_fn(|i| i);
+        let union = |p: &mut [usize; 12], a: usize, b: usize| {
             let ra = find(p, a);
             let rb = find(p, b);
             if ra != rb {
@@ -216,6 +222,20 @@ pub fn opposite_face(f: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn masks_only_matter_on_ambiguous_faces() {
+        let t = CellTables::get();
+        for config in 0..256usize {
+            for mask in 0..64usize {
+                assert_eq!(
+                    t.comps[config * 64 + mask],
+                    CellTables::components(config, mask),
+                    "config {config} mask {mask}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn single_corner_has_one_component_of_three_edges() {

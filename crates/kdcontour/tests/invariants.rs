@@ -87,30 +87,37 @@ fn negative_threshold_is_uniform_dmc() {
 
 #[test]
 fn reextraction_equals_fresh_build_and_threads_agree() {
-    let scene = scenes::scene("thin_plates").unwrap();
-    let grid = Grid::cube(1.0, 48);
-    let one = Settings {
-        threads: 1,
-        ..Default::default()
-    };
-    let many = Settings {
-        threads: 4,
-        ..Default::default()
-    };
-    let tree = KdTree::build(&*scene.field, &grid, &one).unwrap();
-    let tree_many = KdTree::build(&*scene.field, &grid, &many).unwrap();
-    let mut reused = IndexedMesh::default();
-    for &e in THRESHOLDS.iter().rev() {
-        tree.extract(e, &mut reused);
-        let fresh = kdcontour::mesh(&*scene.field, &grid, e, &one).unwrap();
+    // Large enough (res 72) that the build splits into parallel subtrees.
+    for name in ["thin_plates", "gyroid", "caves", "csg_mix"] {
+        let scene = scenes::scene(name).unwrap();
+        let grid = Grid::cube(1.0, 72);
+        let one = Settings {
+            threads: 1,
+            ..Default::default()
+        };
+        let many = Settings {
+            threads: 4,
+            ..Default::default()
+        };
+        let tree = KdTree::build(&*scene.field, &grid, &one).unwrap();
+        let tree_many = KdTree::build(&*scene.field, &grid, &many).unwrap();
         assert_eq!(
-            reused, fresh,
-            "threshold {e}: re-extraction differs from a fresh build"
+            tree.nodes, tree_many.nodes,
+            "{name}: trees differ across thread counts"
         );
-        assert_eq!(
-            tree_many.mesh(e),
-            fresh,
-            "threshold {e}: 4 threads differ from 1"
-        );
+        let mut reused = IndexedMesh::default();
+        for &e in THRESHOLDS.iter().rev() {
+            tree.extract(e, &mut reused);
+            let fresh = kdcontour::mesh(&*scene.field, &grid, e, &one).unwrap();
+            assert_eq!(
+                reused, fresh,
+                "{name} threshold {e}: re-extraction differs from a fresh build"
+            );
+            assert_eq!(
+                tree_many.mesh(e),
+                fresh,
+                "{name} threshold {e}: 4 threads differ from 1"
+            );
+        }
     }
 }
