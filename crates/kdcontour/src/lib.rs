@@ -46,6 +46,7 @@
 
 // Loops over the 3 axes, 8 corners and 12 edges of a cell read best with indices.
 #![allow(clippy::needless_range_loop)]
+#![warn(missing_docs)]
 
 pub mod cell;
 pub mod dmc;
