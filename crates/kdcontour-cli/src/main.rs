@@ -1,7 +1,10 @@
 //! `kdcontour`: mesh built-in scenes or JSON scene files from the command line.
 
 use clap::{Parser, Subcommand};
-use kdcontour::{scenes, validate, CsgNode, Field, Grid, IndexedMesh, KdTree, Settings};
+use kdcontour::meshers::{self, Mesher};
+use kdcontour::{
+    scenes, validate, CsgNode, Field, Grid, IndexedMesh, KdTree, MeshReport, Settings,
+};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -50,6 +53,24 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Mesh one input with Marching Cubes, uniform DMC, the octree and the k-d tree
+    /// side by side (same samples, same threshold).
+    Compare {
+        #[command(flatten)]
+        input: Input,
+        /// Cells per axis.
+        #[arg(long, default_value_t = 64)]
+        res: u32,
+        /// Error threshold in squared cells for the adaptive meshers.
+        #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
+        threshold: f32,
+        /// Worker threads (0 = all cores).
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
+        /// Print one JSON line per mesher instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
     /// List the built-in scenes.
     Scenes,
 }
@@ -68,8 +89,132 @@ fn load(input: &Input) -> Result<(String, Box<dyn Field>), String> {
     Ok((path.display().to_string(), Box::new(field)))
 }
 
+/// The JSON line every report prints (the keys `mesh --json` promises).
+#[allow(clippy::too_many_arguments)]
+fn json_line(
+    mesher: &str,
+    scene: &str,
+    res: u32,
+    threshold: f32,
+    r: &MeshReport,
+    sample_ms: f64,
+    build_ms: f64,
+    contour_ms: f64,
+) -> String {
+    serde_json::json!({
+        "mesher": mesher,
+        "scene": scene,
+        "res": res,
+        "threshold": threshold,
+        "triangles": r.triangles,
+        "vertices": r.vertices,
+        "sample_ms": sample_ms,
+        "build_ms": build_ms,
+        "contour_ms": contour_ms,
+        "total_ms": sample_ms + build_ms + contour_ms,
+        "watertight": r.watertight,
+        "manifold": r.manifold,
+        "euler": r.euler,
+        "max_error": r.max_error,
+        "mean_error": r.mean_error,
+    })
+    .to_string()
+}
+
+fn check_threshold(threshold: f32) -> Result<(), String> {
+    if threshold.is_finite() {
+        Ok(())
+    } else {
+        Err(format!(
+            "--threshold must be a finite number, got {threshold}"
+        ))
+    }
+}
+
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
+        Command::Compare {
+            input,
+            res,
+            threshold,
+            threads,
+            json,
+        } => {
+            check_threshold(threshold)?;
+            let (scene, field) = load(&input)?;
+            let grid = Grid::cube(1.0, res);
+            let settings = Settings {
+                threads,
+                ..Default::default()
+            };
+            let sampled = meshers::sample(&*field, &grid, &settings).map_err(|e| e.to_string())?;
+            if !json {
+                println!("{scene} at res {res}, threshold {threshold} (errors in cells)");
+                println!(
+                    "{:<15} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>6} {:>6} {:>6}",
+                    "mesher",
+                    "triangles",
+                    "vertices",
+                    "max err",
+                    "mean err",
+                    "sample",
+                    "build",
+                    "contour",
+                    "closed",
+                    "manif",
+                    "euler"
+                );
+            }
+            let mut octree_tris = None;
+            for mesher in Mesher::ALL {
+                let (mesh, t) = meshers::run(mesher, &sampled, threshold, &settings)
+                    .map_err(|e| e.to_string())?;
+                let r = validate(&mesh, Some((&*field, grid.cell_size)));
+                if json {
+                    println!(
+                        "{}",
+                        json_line(
+                            mesher.name(),
+                            &scene,
+                            res,
+                            threshold,
+                            &r,
+                            t.sample_ms,
+                            t.build_ms,
+                            t.contour_ms
+                        )
+                    );
+                } else {
+                    println!(
+                        "{:<15} {:>10} {:>9} {:>9.4} {:>9.4} {:>7.1}ms {:>7.1}ms {:>7.1}ms {:>6} {:>6} {:>6}",
+                        mesher.name(),
+                        r.triangles,
+                        r.vertices,
+                        r.max_error,
+                        r.mean_error,
+                        t.sample_ms,
+                        t.build_ms,
+                        t.contour_ms,
+                        r.watertight,
+                        r.manifold,
+                        r.euler
+                    );
+                }
+                match mesher {
+                    Mesher::Octree => octree_tris = Some(r.triangles),
+                    Mesher::KdTree if !json => {
+                        if let Some(o) = octree_tris.filter(|&o| o > 0) {
+                            println!(
+                                "k-d / octree triangles: {:.3}",
+                                r.triangles as f64 / o as f64
+                            );
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            Ok(())
+        }
         Command::Scenes => {
             for name in scenes::SCENES {
                 let s = scenes::scene(name).map_err(|e| e.to_string())?;
@@ -111,23 +256,16 @@ fn run(cli: Cli) -> Result<(), String> {
             let contour_ms = (t2 - t1).as_secs_f64() * 1e3;
             let total_ms = (t2 - t0).as_secs_f64() * 1e3;
             if json {
-                let line = serde_json::json!({
-                    "mesher": "kdtree",
-                    "scene": scene,
-                    "res": res,
-                    "threshold": threshold,
-                    "triangles": report.triangles,
-                    "vertices": report.vertices,
-                    "sample_ms": tree.stats.sample_ms,
-                    "build_ms": tree.stats.build_ms,
-                    "contour_ms": contour_ms,
-                    "total_ms": total_ms,
-                    "watertight": report.watertight,
-                    "manifold": report.manifold,
-                    "euler": report.euler,
-                    "max_error": report.max_error,
-                    "mean_error": report.mean_error,
-                });
+                let line = json_line(
+                    "kdtree",
+                    &scene,
+                    res,
+                    threshold,
+                    &report,
+                    tree.stats.sample_ms,
+                    tree.stats.build_ms,
+                    contour_ms,
+                );
                 println!("{line}");
             } else {
                 println!("scene      {scene} at res {res}, threshold {threshold}");

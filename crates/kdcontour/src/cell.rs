@@ -33,6 +33,26 @@ pub struct CellComps {
     pub count: u8,
 }
 
+/// The contour loops of one cell configuration under one resolution mask, each an
+/// ordered cycle of crossing edges (consecutive edges share a face).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CellLoops {
+    /// The edges of all loops, loop after loop.
+    pub edges: [u8; 12],
+    /// Number of edges of each loop.
+    pub len: [u8; 4],
+    /// Number of loops (equals [`CellComps::count`], loops in component order).
+    pub count: u8,
+}
+
+impl CellLoops {
+    /// The ordered edges of loop `k`.
+    pub fn edges_of(&self, k: usize) -> &[u8] {
+        let start: usize = self.len[..k].iter().map(|&l| l as usize).sum();
+        &self.edges[start..start + self.len[k] as usize]
+    }
+}
+
 /// Marks an edge without a sign change in [`CellComps::edge_comp`].
 pub const NO_COMP: u8 = u8::MAX;
 
@@ -45,6 +65,8 @@ pub struct CellTables {
     pub skeleton_joined: [u8; 256],
     /// Indexed by `config * 64 + mask`.
     pub comps: Vec<CellComps>,
+    /// Indexed by `config * 64 + mask`.
+    pub loops: Vec<CellLoops>,
 }
 
 /// The corner offset of corner `i`.
@@ -139,11 +161,79 @@ impl CellTables {
                 };
             }
         }
+        let loops = (0..256 * 64)
+            .map(|i| Self::loops_of(i / 64, i % 64, &comps[i]))
+            .collect();
         CellTables {
             ambiguous,
             skeleton_joined,
             comps,
+            loops,
         }
+    }
+
+    /// The face segments of a cell: pairs of crossing edges joined on a face.
+    fn segments(config: usize, mask: usize) -> Vec<(usize, usize)> {
+        let outside = |c: usize| (config >> c) & 1 == 1;
+        let crossing = |e: usize| {
+            let (a, b) = edge_corners(e);
+            outside(a) != outside(b)
+        };
+        let mut out = Vec::new();
+        for f in 0..6 {
+            let fc = face_corners(f);
+            let fe: [usize; 4] = std::array::from_fn(|i| edge_between(fc[i], fc[(i + 1) % 4]));
+            let active: Vec<usize> = fe.iter().cloned().filter(|&e| crossing(e)).collect();
+            match active.len() {
+                2 => out.push((active[0], active[1])),
+                4 => {
+                    let join_outside = mask & (1 << f) != 0;
+                    for i in 0..4 {
+                        if outside(fc[i]) != join_outside {
+                            out.push((fe[(i + 3) % 4], fe[i]));
+                        }
+                    }
+                }
+                _ => {}
+            }
+        }
+        out
+    }
+
+    fn loops_of(config: usize, mask: usize, comps: &CellComps) -> CellLoops {
+        let segs = Self::segments(config, mask);
+        let mut out = CellLoops {
+            count: comps.count,
+            ..Default::default()
+        };
+        let mut n = 0;
+        for k in 0..comps.count {
+            let start = (0..12).find(|&e| comps.edge_comp[e] == k).unwrap();
+            let (mut prev, mut cur) = (usize::MAX, start);
+            loop {
+                out.edges[n] = cur as u8;
+                n += 1;
+                out.len[k as usize] += 1;
+                let next = segs
+                    .iter()
+                    .find_map(|&(a, b)| {
+                        if a == cur && b != prev {
+                            Some(b)
+                        } else if b == cur && a != prev {
+                            Some(a)
+                        } else {
+                            None
+                        }
+                    })
+                    .unwrap();
+                prev = cur;
+                cur = next;
+                if cur == start {
+                    break;
+                }
+            }
+        }
+        out
     }
 
     fn components(config: usize, mask: usize) -> CellComps {
@@ -233,6 +323,28 @@ mod tests {
                     CellTables::components(config, mask),
                     "config {config} mask {mask}"
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn loops_are_the_components_in_face_order() {
+        let t = CellTables::get();
+        for i in 0..256 * 64 {
+            let (c, l) = (t.comps[i], t.loops[i]);
+            assert_eq!(c.count, l.count);
+            for k in 0..l.count as usize {
+                let edges = l.edges_of(k);
+                assert!(edges.len() >= 3);
+                for (j, &e) in edges.iter().enumerate() {
+                    assert_eq!(c.edge_comp[e as usize], k as u8);
+                    // Consecutive edges share a face: their corners span 4 corners.
+                    let next = edges[(j + 1) % edges.len()] as usize;
+                    let (a, b) = edge_corners(e as usize);
+                    let (x, y) = edge_corners(next);
+                    let common = (a & b & x & y, a | b | x | y);
+                    assert_eq!((common.1 & !common.0).count_ones(), 2, "{i}: {e} {next}");
+                }
             }
         }
     }

@@ -40,6 +40,19 @@ pub struct Hermite {
     pub patch_normal: Vec<Vec3>,
     /// Number of edges with a sign change.
     pub crossings: usize,
+    /// Every edge crossing, in a fixed order.
+    pub edges: Vec<EdgeCrossing>,
+}
+
+/// The surface crossing on one grid edge.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EdgeCrossing {
+    /// The edge: `3 * (linear index of its low corner) + axis`.
+    pub key: u64,
+    /// Where the surface crosses it (grid units).
+    pub point: Vec3,
+    /// The unit normal there.
+    pub normal: Vec3,
 }
 
 /// Estimated bytes the build needs for `grid` (samples, sign bits, the cell lookup
@@ -366,6 +379,7 @@ impl Hermite {
         let mut patch_qef = vec![Qef::default(); patches as usize];
         let mut patch_normal = vec![Vec3::ZERO; patches as usize];
         let mut crossings = 0usize;
+        let mut edges = Vec::new();
         for list in crossing_lists {
             for x in list? {
                 crossings += 1;
@@ -380,6 +394,11 @@ impl Hermite {
                 ];
                 g[u] += (e % 4) as u32 & 1;
                 g[v] += (e % 4) as u32 >> 1;
+                edges.push(EdgeCrossing {
+                    key: 3 * cidx(g[0], g[1], g[2]) as u64 + a as u64,
+                    point: x.point,
+                    normal: x.normal,
+                });
                 // The (up to) four cells around the edge.
                 for su in 0..2u32 {
                     for sv in 0..2u32 {
@@ -421,6 +440,7 @@ impl Hermite {
             patch_qef,
             patch_normal,
             crossings,
+            edges,
         })
     }
 

@@ -55,7 +55,9 @@ pub mod field;
 pub mod grid;
 pub mod hermite;
 pub mod kdtree;
+pub mod mc;
 pub mod mesh;
+pub mod meshers;
 pub mod qef;
 pub mod scenes;
 pub mod validate;
@@ -64,7 +66,7 @@ pub use error::{Error, Result, SceneError};
 pub use field::csg::{Csg, CsgNode};
 pub use field::Field;
 pub use grid::Grid;
-pub use kdtree::{BuildStats, KdTree};
+pub use kdtree::{BuildStats, KdTree, Partition};
 pub use mesh::IndexedMesh;
 pub use validate::{validate, MeshReport};
 
@@ -84,6 +86,8 @@ pub struct Settings {
     /// res 32, 4 steps left a corner vertex 0.2 cells off, 8 put it on the corner;
     /// 12 leaves margin.
     pub root_iterations: u32,
+    /// How boxes are split: the paper's k-d tree (default) or the octree baseline.
+    pub partition: kdtree::Partition,
 }
 
 impl Default for Settings {
@@ -92,6 +96,7 @@ impl Default for Settings {
             threads: 0,
             memory_budget: 4 << 30,
             root_iterations: 12,
+            partition: kdtree::Partition::KdTree,
         }
     }
 }
@@ -143,7 +148,7 @@ impl KdTree {
             let h = hermite::Hermite::new(field, grid, &values, settings)?;
             drop(values);
             let t1 = Instant::now();
-            let mut tree = kdtree::build(&h);
+            let mut tree = kdtree::build_with(&h, settings.partition);
             let t2 = Instant::now();
             tree.stats = BuildStats {
                 sample_ms: (t1 - t0).as_secs_f64() * 1e3,

@@ -7,7 +7,7 @@ mod contour;
 use crate::grid::Grid;
 use glam::Vec3;
 
-pub use build::build;
+pub use build::{build, build_with, Partition};
 
 /// Marks a missing child (an empty box pruned during construction).
 pub const NONE: u32 = u32::MAX;
@@ -35,6 +35,9 @@ pub struct KdNode {
     pub split: u16,
     /// Whether the node may stand in for its subtree (section 5).
     pub clusterable: bool,
+    /// Whether the partition lets the node be a leaf (the octree baseline only
+    /// allows whole octree cells; the k-d tree allows every clusterable node).
+    pub leaf_ok: bool,
     /// Index of the first component in [`KdTree::comps`].
     pub comp_start: u32,
     /// Largest QEF residual of any component at or below this node (squared grid
@@ -102,7 +105,7 @@ impl KdTree {
     #[inline]
     pub fn is_leaf(&self, n: u32, e: f32) -> bool {
         let node = &self.nodes[n as usize];
-        node.axis == CELL || (node.clusterable && node.error <= e)
+        node.axis == CELL || (node.clusterable && node.leaf_ok && node.error <= e)
     }
 
     /// Component (index within node `x`) of the patch of fine cell `cell` that edge

@@ -1,0 +1,124 @@
+//! Every mesher in the crate behind one call, for side-by-side comparison on the
+//! same Hermite data.
+
+use crate::error::Result;
+use crate::field::Field;
+use crate::grid::Grid;
+use crate::hermite::{self, Hermite};
+use crate::kdtree::{self, Partition};
+use crate::mesh::IndexedMesh;
+use crate::Settings;
+use std::time::Instant;
+
+/// A meshing method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Mesher {
+    /// Classic Marching Cubes (primal, one vertex per edge crossing).
+    MarchingCubes,
+    /// Uniform Dual Marching Cubes (one vertex per cell component).
+    UniformDmc,
+    /// The octree baseline: same machinery, midpoint splits.
+    Octree,
+    /// The discrete k-d tree.
+    KdTree,
+}
+
+impl Mesher {
+    /// All meshers, coarsest idea first.
+    pub const ALL: [Mesher; 4] = [
+        Mesher::MarchingCubes,
+        Mesher::UniformDmc,
+        Mesher::Octree,
+        Mesher::KdTree,
+    ];
+
+    /// The name used in reports and JSON (`marching-cubes`, `dmc`, `octree`,
+    /// `kdtree`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Mesher::MarchingCubes => "marching-cubes",
+            Mesher::UniformDmc => "dmc",
+            Mesher::Octree => "octree",
+            Mesher::KdTree => "kdtree",
+        }
+    }
+
+    /// Whether the threshold matters.
+    pub fn adaptive(self) -> bool {
+        matches!(self, Mesher::Octree | Mesher::KdTree)
+    }
+}
+
+/// Times of one run, in milliseconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Timings {
+    /// Sampling and Hermite data.
+    pub sample_ms: f64,
+    /// Building the tree (0 for uniform meshers).
+    pub build_ms: f64,
+    /// Making polygons.
+    pub contour_ms: f64,
+}
+
+impl Timings {
+    /// Sum of the stages.
+    pub fn total_ms(&self) -> f64 {
+        self.sample_ms + self.build_ms + self.contour_ms
+    }
+}
+
+/// Samples once and keeps the Hermite data for several meshers.
+pub struct Sampled {
+    /// The Hermite data.
+    pub hermite: Hermite,
+    /// How long sampling took (ms).
+    pub sample_ms: f64,
+}
+
+/// Samples `field` on `grid` (see [`hermite::sample`]).
+pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Sampled> {
+    settings.run(|| {
+        let t0 = Instant::now();
+        let values = hermite::sample(field, grid, settings)?;
+        let hermite = Hermite::new(field, grid, &values, settings)?;
+        Ok(Sampled {
+            hermite,
+            sample_ms: t0.elapsed().as_secs_f64() * 1e3,
+        })
+    })?
+}
+
+/// Meshes sampled data with `mesher` at `threshold` (ignored by uniform meshers).
+pub fn run(
+    mesher: Mesher,
+    s: &Sampled,
+    threshold: f32,
+    settings: &Settings,
+) -> Result<(IndexedMesh, Timings)> {
+    settings.run(|| {
+        let mut t = Timings {
+            sample_ms: s.sample_ms,
+            ..Default::default()
+        };
+        let t0 = Instant::now();
+        let mesh = match mesher {
+            Mesher::MarchingCubes => crate::mc::marching_cubes(&s.hermite),
+            Mesher::UniformDmc => crate::dmc::uniform_dmc(&s.hermite),
+            Mesher::Octree | Mesher::KdTree => {
+                let partition = if mesher == Mesher::Octree {
+                    Partition::Octree
+                } else {
+                    Partition::KdTree
+                };
+                let tree = kdtree::build_with(&s.hermite, partition);
+                t.build_ms = t0.elapsed().as_secs_f64() * 1e3;
+                let t1 = Instant::now();
+                let m = tree.mesh(threshold);
+                t.contour_ms = t1.elapsed().as_secs_f64() * 1e3;
+                return (m, t);
+            }
+        };
+        t.contour_ms = t0.elapsed().as_secs_f64() * 1e3;
+        (mesh, t)
+    })
+}
