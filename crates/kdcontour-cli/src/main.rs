@@ -1,6 +1,10 @@
-//! `kdcontour`: mesh built-in scenes or JSON scene files from the command line.
+//! `kdcontour`: mesh built-in scenes, scene files, volumes and triangle meshes from
+//! the command line, and compare the meshers side by side.
 
 use clap::{Parser, Subcommand};
+use kdcontour::field::mesh_sdf::MeshSdf;
+use kdcontour::field::volume::Inside;
+use kdcontour::io::volume::{self, VoxelType};
 use kdcontour::meshers::{self, Mesher};
 use kdcontour::{
     scenes, validate, CsgNode, Field, Grid, IndexedMesh, KdTree, MeshReport, Settings,
@@ -21,14 +25,65 @@ struct Cli {
 }
 
 #[derive(clap::Args)]
-#[group(required = true, multiple = false)]
 struct Input {
+    #[command(flatten)]
+    source: Source,
+    /// Raw volumes: voxels along x, y, z (e.g. 256,256,128).
+    #[arg(long, value_parser = parse_uvec3)]
+    dims: Option<glam::UVec3>,
+    /// Raw volumes: voxel type, u8 | u16 | i16 | f32 (little endian).
+    #[arg(long = "type")]
+    voxel_type: Option<String>,
+    /// Raw volumes: voxel spacing along x, y, z (world units).
+    #[arg(long, value_parser = parse_vec3, default_value = "1,1,1")]
+    spacing: glam::Vec3,
+    /// Volumes: the iso value of the surface.
+    #[arg(long, allow_negative_numbers = true)]
+    iso: Option<f32>,
+    /// Volumes: values `above` (CT: bone) or `below` the iso value are inside.
+    #[arg(long, default_value = "above")]
+    inside: String,
+}
+
+#[derive(clap::Args)]
+#[group(required = true, multiple = false)]
+struct Source {
     /// A built-in scene (see `kdcontour scenes`).
     #[arg(long)]
     scene: Option<String>,
-    /// A JSON CSG scene file (format: crates/kdcontour/src/field/csg.rs, scenes/*.json).
+    /// A JSON CSG scene file (format: scenes/README.md).
     #[arg(long)]
     scene_file: Option<PathBuf>,
+    /// A volume: NIfTI-1 (.nii, .nii.gz) or raw voxels (with --dims and --type).
+    #[arg(long)]
+    volume: Option<PathBuf>,
+    /// A triangle mesh (.obj, .ply) meshed as a signed distance field.
+    #[arg(long)]
+    mesh: Option<PathBuf>,
+}
+
+fn parse_triple(s: &str) -> Result<[f32; 3], String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|t| {
+            t.trim()
+                .parse::<f32>()
+                .map_err(|_| format!("`{t}` is not a number"))
+        })
+        .collect::<Result<_, _>>()?;
+    <[f32; 3]>::try_from(v).map_err(|_| format!("`{s}`: expected three comma-separated numbers"))
+}
+
+fn parse_vec3(s: &str) -> Result<glam::Vec3, String> {
+    parse_triple(s).map(glam::Vec3::from)
+}
+
+fn parse_uvec3(s: &str) -> Result<glam::UVec3, String> {
+    let t = parse_triple(s)?;
+    if t.iter().any(|v| *v < 0.0 || v.fract() != 0.0) {
+        return Err(format!("`{s}`: dims must be whole numbers"));
+    }
+    Ok(glam::UVec3::new(t[0] as u32, t[1] as u32, t[2] as u32))
 }
 
 #[derive(Subcommand)]
@@ -73,20 +128,122 @@ enum Command {
     },
     /// List the built-in scenes.
     Scenes,
+    /// Write a synthetic CT scan (the 3-D Shepp-Logan head phantom) as NIfTI.
+    Phantom {
+        /// Voxels per axis.
+        #[arg(long, default_value_t = 128)]
+        res: u32,
+        /// The .nii or .nii.gz file to write.
+        #[arg(long)]
+        out: PathBuf,
+    },
 }
 
-fn load(input: &Input) -> Result<(String, Box<dyn Field>), String> {
-    if let Some(name) = &input.scene {
+/// The loaded input: its name, its field, and the world box to mesh.
+struct Loaded {
+    name: String,
+    field: Box<dyn Field>,
+    bounds: Option<(glam::Vec3, glam::Vec3)>,
+}
+
+fn load(input: &Input) -> Result<Loaded, String> {
+    let src = &input.source;
+    if let Some(name) = &src.scene {
         let s = scenes::scene(name).map_err(|e| e.to_string())?;
-        return Ok((s.name.to_string(), s.field));
+        return Ok(Loaded {
+            name: s.name.to_string(),
+            field: s.field,
+            bounds: None,
+        });
     }
-    let path = input.scene_file.as_ref().expect("clap requires one input");
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let node = CsgNode::from_json(&text).map_err(|e| format!("{}: {e}", path.display()))?;
-    let field = node
-        .compile()
-        .map_err(|e| format!("{}: {e}", path.display()))?;
-    Ok((path.display().to_string(), Box::new(field)))
+    if let Some(path) = &src.scene_file {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let node = CsgNode::from_json(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+        let field = node
+            .compile()
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        return Ok(Loaded {
+            name: path.display().to_string(),
+            field: Box::new(field),
+            bounds: None,
+        });
+    }
+    if let Some(path) = &src.volume {
+        let inside = match input.inside.as_str() {
+            "above" => Inside::Above,
+            "below" => Inside::Below,
+            other => {
+                return Err(format!(
+                    "--inside must be `above` or `below`, got `{other}`"
+                ))
+            }
+        };
+        let iso = input
+            .iso
+            .ok_or("--iso is required with --volume (the value the surface is drawn at)")?;
+        let name = path.display().to_string();
+        let vol = if name.ends_with(".nii") || name.ends_with(".nii.gz") {
+            volume::load_nifti(path, iso, inside)
+        } else {
+            let dims = input
+                .dims
+                .ok_or("a raw volume needs --dims X,Y,Z (or use a .nii / .nii.gz file)")?;
+            let ty = input
+                .voxel_type
+                .as_deref()
+                .ok_or("a raw volume needs --type u8|u16|i16|f32")?;
+            let ty = VoxelType::parse(ty)
+                .ok_or(format!("--type must be u8, u16, i16 or f32, got `{ty}`"))?;
+            volume::load_raw(path, dims, ty, input.spacing, iso, inside)
+        }
+        .map_err(|e| e.to_string())?;
+        let (lo, hi) = vol.range();
+        if !(lo..=hi).contains(&iso) {
+            eprintln!("warning: iso {iso} is outside the volume's values [{lo}, {hi}]: the mesh will be empty");
+        }
+        let bounds = vol.bounds();
+        return Ok(Loaded {
+            name,
+            field: Box::new(vol),
+            bounds: Some(bounds),
+        });
+    }
+    let path = src.mesh.as_ref().expect("clap requires one input");
+    let mesh = kdcontour::io::mesh::load_mesh(path).map_err(|e| e.to_string())?;
+    let sdf = MeshSdf::new(&mesh);
+    let bounds = sdf.bounds();
+    Ok(Loaded {
+        name: path.display().to_string(),
+        field: Box::new(sdf),
+        bounds: Some(bounds),
+    })
+}
+
+/// The grid for an input: `[-1, 1]^3` for scenes; for volumes and meshes the input's
+/// box with `res` cells along its longest side and one cell of margin all round, so
+/// the surface closes inside the grid.
+fn grid_for(loaded: &Loaded, res: u32) -> Grid {
+    match loaded.bounds {
+        None => Grid::cube(1.0, res),
+        Some((lo, hi)) => {
+            let ext = hi - lo;
+            let cell = if res == 0 {
+                0.0
+            } else {
+                ext.max_element() / res as f32
+            };
+            let cells = if cell > 0.0 {
+                (ext / cell).ceil().as_uvec3().max(glam::UVec3::ONE) + glam::UVec3::splat(2)
+            } else {
+                glam::UVec3::ZERO
+            };
+            Grid {
+                origin: lo - glam::Vec3::splat(cell),
+                cell_size: cell,
+                cells,
+            }
+        }
+    }
 }
 
 /// The JSON line every report prints (the keys `mesh --json` promises).
@@ -141,8 +298,9 @@ fn run(cli: Cli) -> Result<(), String> {
             json,
         } => {
             check_threshold(threshold)?;
-            let (scene, field) = load(&input)?;
-            let grid = Grid::cube(1.0, res);
+            let loaded = load(&input)?;
+            let grid = grid_for(&loaded, res);
+            let (scene, field) = (loaded.name, loaded.field);
             let settings = Settings {
                 threads,
                 ..Default::default()
@@ -215,6 +373,17 @@ fn run(cli: Cli) -> Result<(), String> {
             }
             Ok(())
         }
+        Command::Phantom { res, out } => {
+            if !(8..=1024).contains(&res) {
+                return Err(format!("--res must be 8 to 1024, got {res}"));
+            }
+            volume::write_nifti(&out, &volume::phantom(res)).map_err(|e| e.to_string())?;
+            println!(
+                "wrote {} ({res}^3 voxels; the skull is at --iso 1.5)",
+                out.display()
+            );
+            Ok(())
+        }
         Command::Scenes => {
             for name in scenes::SCENES {
                 let s = scenes::scene(name).map_err(|e| e.to_string())?;
@@ -230,13 +399,10 @@ fn run(cli: Cli) -> Result<(), String> {
             out,
             json,
         } => {
-            if !threshold.is_finite() {
-                return Err(format!(
-                    "--threshold must be a finite number, got {threshold}"
-                ));
-            }
-            let (scene, field) = load(&input)?;
-            let grid = Grid::cube(1.0, res);
+            check_threshold(threshold)?;
+            let loaded = load(&input)?;
+            let grid = grid_for(&loaded, res);
+            let (scene, field) = (loaded.name, loaded.field);
             let settings = Settings {
                 threads,
                 ..Default::default()

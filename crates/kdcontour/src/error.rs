@@ -48,6 +48,15 @@ pub enum Error {
     /// A scene file could not be parsed or describes an impossible scene.
     #[error("{0}")]
     Scene(#[from] SceneError),
+    /// An input file (volume or mesh) is malformed or does not match what was said
+    /// about it.
+    #[error("{path}: {message}")]
+    Input {
+        /// The file.
+        path: String,
+        /// What is wrong, and where in the file.
+        message: String,
+    },
     /// Reading or writing a file failed.
     #[error("{path}: {message}")]
     Io {

@@ -54,6 +54,7 @@ pub mod error;
 pub mod field;
 pub mod grid;
 pub mod hermite;
+pub mod io;
 pub mod kdtree;
 pub mod mc;
 pub mod mesh;

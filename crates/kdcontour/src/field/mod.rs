@@ -5,8 +5,10 @@
 //! [`terrain`] builds height-field and 3-D density terrain from the `noise` crate.
 
 pub mod csg;
+pub mod mesh_sdf;
 pub mod sdf;
 pub mod terrain;
+pub mod volume;
 
 use crate::grid::Grid;
 use glam::Vec3;

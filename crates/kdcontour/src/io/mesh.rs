@@ -1,0 +1,358 @@
+//! OBJ and PLY triangle meshes (input side; see [`crate::mesh`] for writing).
+
+use super::{bad, read};
+use crate::error::Result;
+use glam::Vec3;
+use std::path::Path;
+
+/// A triangle soup with shared vertices.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TriMesh {
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Vertex indices, counter-clockwise seen from outside.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl TriMesh {
+    /// The box around the vertices.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.positions
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(*p), hi.max(*p))
+            })
+    }
+}
+
+/// Loads an `.obj` or `.ply` file (chosen by extension).
+pub fn load_mesh(path: &Path) -> Result<TriMesh> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    let bytes = read(path)?;
+    let mesh = match ext.as_deref() {
+        Some("obj") => parse_obj(&String::from_utf8_lossy(&bytes)),
+        Some("ply") => parse_ply(&bytes),
+        _ => Err("unknown mesh format; use a .obj or .ply file".to_string()),
+    }
+    .map_err(|m| bad(path, m))?;
+    if mesh.triangles.is_empty() {
+        return Err(bad(path, "the mesh has no faces"));
+    }
+    if let Some(p) = mesh.positions.iter().find(|p| !p.is_finite()) {
+        return Err(bad(path, format!("vertex {p} is not finite")));
+    }
+    Ok(mesh)
+}
+
+/// Parses Wavefront OBJ text: `v` and `f` lines (`i`, `i/t`, `i//n`, `i/t/n`,
+/// negative indices), polygons fanned into triangles; other lines are ignored.
+pub fn parse_obj(text: &str) -> std::result::Result<TriMesh, String> {
+    let mut m = TriMesh::default();
+    for (n, line) in text.lines().enumerate() {
+        let line_no = n + 1;
+        let mut it = line.split_whitespace();
+        match it.next() {
+            Some("v") => {
+                let mut c = [0f32; 3];
+                for v in c.iter_mut() {
+                    let tok = it
+                        .next()
+                        .ok_or(format!("line {line_no}: a vertex needs x, y and z"))?;
+                    *v = tok
+                        .parse()
+                        .map_err(|_| format!("line {line_no}: `{tok}` is not a number"))?;
+                }
+                m.positions.push(Vec3::from(c));
+            }
+            Some("f") => {
+                let mut idx = Vec::new();
+                for tok in it {
+                    let first = tok.split('/').next().unwrap_or("");
+                    let i: i64 = first
+                        .parse()
+                        .map_err(|_| format!("line {line_no}: `{tok}` is not a vertex index"))?;
+                    let count = m.positions.len() as i64;
+                    let resolved = if i < 0 { count + i } else { i - 1 };
+                    if i == 0 || resolved < 0 || resolved >= count {
+                        return Err(format!(
+                            "line {line_no}: vertex index {i} is out of range (the file has {count} vertices so far)"
+                        ));
+                    }
+                    idx.push(resolved as u32);
+                }
+                if idx.len() < 3 {
+                    return Err(format!("line {line_no}: a face needs at least 3 vertices"));
+                }
+                for k in 1..idx.len() - 1 {
+                    m.triangles.push([idx[0], idx[k], idx[k + 1]]);
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(m)
+}
+
+#[derive(Clone, Copy)]
+enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    fn parse(s: &str) -> Option<Scalar> {
+        Some(match s {
+            "char" | "int8" => Scalar::I8,
+            "uchar" | "uint8" => Scalar::U8,
+            "short" | "int16" => Scalar::I16,
+            "ushort" | "uint16" => Scalar::U16,
+            "int" | "int32" => Scalar::I32,
+            "uint" | "uint32" => Scalar::U32,
+            "float" | "float32" => Scalar::F32,
+            "double" | "float64" => Scalar::F64,
+            _ => return None,
+        })
+    }
+    fn size(self) -> usize {
+        match self {
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::I16 | Scalar::U16 => 2,
+            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
+            Scalar::F64 => 8,
+        }
+    }
+    fn read(self, b: &[u8], big: bool) -> f64 {
+        macro_rules! rd {
+            ($t:ty, $n:expr) => {{
+                let a: [u8; $n] = b[..$n].try_into().unwrap();
+                (if big {
+                    <$t>::from_be_bytes(a)
+                } else {
+                    <$t>::from_le_bytes(a)
+                }) as f64
+            }};
+        }
+        match self {
+            Scalar::I8 => b[0] as i8 as f64,
+            Scalar::U8 => b[0] as f64,
+            Scalar::I16 => rd!(i16, 2),
+            Scalar::U16 => rd!(u16, 2),
+            Scalar::I32 => rd!(i32, 4),
+            Scalar::U32 => rd!(u32, 4),
+            Scalar::F32 => rd!(f32, 4),
+            Scalar::F64 => rd!(f64, 8),
+        }
+    }
+}
+
+enum Prop {
+    One(String, Scalar),
+    List(String, Scalar, Scalar),
+}
+
+/// Parses PLY (ascii, binary little or big endian): the `vertex` element's x, y, z
+/// and the `face` element's index list; other elements and properties are skipped.
+pub fn parse_ply(bytes: &[u8]) -> std::result::Result<TriMesh, String> {
+    let end = bytes
+        .windows(10)
+        .position(|w| w == b"end_header")
+        .ok_or("not a PLY file: no end_header")?;
+    let body_start = bytes[end..]
+        .iter()
+        .position(|&c| c == b'\n')
+        .map(|i| end + i + 1)
+        .ok_or("not a PLY file: nothing after end_header")?;
+    let header = String::from_utf8_lossy(&bytes[..end]);
+    let mut lines = header.lines();
+    if lines.next().map(str::trim) != Some("ply") {
+        return Err("not a PLY file: it must start with `ply`".into());
+    }
+    let mut format = None;
+    let mut elements: Vec<(String, usize, Vec<Prop>)> = Vec::new();
+    for line in lines {
+        let t: Vec<&str> = line.split_whitespace().collect();
+        match t.as_slice() {
+            ["format", f, _] => format = Some(f.to_string()),
+            ["element", name, n] => elements.push((
+                name.to_string(),
+                n.parse().map_err(|_| format!("bad element count `{n}`"))?,
+                Vec::new(),
+            )),
+            ["property", "list", c, i, name] => {
+                let (c, i) = (
+                    Scalar::parse(c).ok_or(format!("unknown PLY type `{c}`"))?,
+                    Scalar::parse(i).ok_or(format!("unknown PLY type `{i}`"))?,
+                );
+                elements
+                    .last_mut()
+                    .ok_or("property before any element")?
+                    .2
+                    .push(Prop::List(name.to_string(), c, i));
+            }
+            ["property", ty, name] => {
+                let s = Scalar::parse(ty).ok_or(format!("unknown PLY type `{ty}`"))?;
+                elements
+                    .last_mut()
+                    .ok_or("property before any element")?
+                    .2
+                    .push(Prop::One(name.to_string(), s));
+            }
+            _ => {}
+        }
+    }
+    let format = format.ok_or("PLY header has no format line")?;
+    let body = &bytes[body_start..];
+    let mut m = TriMesh::default();
+    let mut vertex_count = 0usize;
+    match format.as_str() {
+        "ascii" => {
+            let text = String::from_utf8_lossy(body);
+            let mut rows = text.lines().filter(|l| !l.trim().is_empty());
+            for (name, n, props) in &elements {
+                for r in 0..*n {
+                    let row = rows
+                        .next()
+                        .ok_or(format!("truncated: {name} {r} of {n} is missing"))?;
+                    let mut tok = row.split_whitespace();
+                    let mut num = |what: &str| -> std::result::Result<f64, String> {
+                        let t = tok.next().ok_or(format!("{name} {r}: missing {what}"))?;
+                        t.parse()
+                            .map_err(|_| format!("{name} {r}: `{t}` is not a number"))
+                    };
+                    read_row(name, props, &mut m, &mut vertex_count, &mut num)?;
+                }
+            }
+        }
+        "binary_little_endian" | "binary_big_endian" => {
+            let big = format == "binary_big_endian";
+            let mut at = 0usize;
+            for (name, n, props) in &elements {
+                for r in 0..*n {
+                    let mut num_at = |s: Scalar| -> std::result::Result<f64, String> {
+                        let b = body.get(at..at + s.size()).ok_or(format!(
+                            "truncated: {name} {r} of {n} runs past the end of the file"
+                        ))?;
+                        at += s.size();
+                        Ok(s.read(b, big))
+                    };
+                    read_row_binary(name, props, &mut m, &mut vertex_count, &mut num_at)?;
+                }
+            }
+        }
+        other => return Err(format!("unknown PLY format `{other}`")),
+    }
+    Ok(m)
+}
+
+fn push_face(
+    m: &mut TriMesh,
+    idx: &[f64],
+    vertex_count: usize,
+    face: usize,
+) -> std::result::Result<(), String> {
+    if idx.len() < 3 {
+        return Err(format!(
+            "face {face} has {} vertices; at least 3 are needed",
+            idx.len()
+        ));
+    }
+    for &i in idx {
+        if i < 0.0 || i as usize >= vertex_count || i.fract() != 0.0 {
+            return Err(format!("face {face}: vertex index {i} is out of range (the file has {vertex_count} vertices)"));
+        }
+    }
+    for k in 1..idx.len() - 1 {
+        m.triangles
+            .push([idx[0] as u32, idx[k] as u32, idx[k + 1] as u32]);
+    }
+    Ok(())
+}
+
+type NumFn<'a> = dyn FnMut(&str) -> std::result::Result<f64, String> + 'a;
+
+fn read_row(
+    name: &str,
+    props: &[Prop],
+    m: &mut TriMesh,
+    vertex_count: &mut usize,
+    num: &mut NumFn,
+) -> std::result::Result<(), String> {
+    let mut xyz = [0f32; 3];
+    for p in props {
+        match p {
+            Prop::One(pn, _) => {
+                let v = num(pn)?;
+                if name == "vertex" {
+                    match pn.as_str() {
+                        "x" => xyz[0] = v as f32,
+                        "y" => xyz[1] = v as f32,
+                        "z" => xyz[2] = v as f32,
+                        _ => {}
+                    }
+                }
+            }
+            Prop::List(pn, ..) => {
+                let count = num("list length")? as usize;
+                let idx: Vec<f64> = (0..count)
+                    .map(|_| num("index"))
+                    .collect::<std::result::Result<_, _>>()?;
+                if name == "face" && (pn == "vertex_indices" || pn == "vertex_index") {
+                    push_face(m, &idx, *vertex_count, m.triangles.len())?;
+                }
+            }
+        }
+    }
+    if name == "vertex" {
+        m.positions.push(Vec3::from(xyz));
+        *vertex_count += 1;
+    }
+    Ok(())
+}
+
+fn read_row_binary(
+    name: &str,
+    props: &[Prop],
+    m: &mut TriMesh,
+    vertex_count: &mut usize,
+    num_at: &mut dyn FnMut(Scalar) -> std::result::Result<f64, String>,
+) -> std::result::Result<(), String> {
+    let mut xyz = [0f32; 3];
+    for p in props {
+        match p {
+            Prop::One(pn, s) => {
+                let v = num_at(*s)?;
+                if name == "vertex" {
+                    match pn.as_str() {
+                        "x" => xyz[0] = v as f32,
+                        "y" => xyz[1] = v as f32,
+                        "z" => xyz[2] = v as f32,
+                        _ => {}
+                    }
+                }
+            }
+            Prop::List(pn, c, i) => {
+                let count = num_at(*c)? as usize;
+                let idx: Vec<f64> = (0..count)
+                    .map(|_| num_at(*i))
+                    .collect::<std::result::Result<_, _>>()?;
+                if name == "face" && (pn == "vertex_indices" || pn == "vertex_index") {
+                    push_face(m, &idx, *vertex_count, m.triangles.len())?;
+                }
+            }
+        }
+    }
+    if name == "vertex" {
+        m.positions.push(Vec3::from(xyz));
+        *vertex_count += 1;
+    }
+    Ok(())
+}
