@@ -143,3 +143,145 @@ fn scenes_lists_every_builtin() {
         assert!(out.contains(name), "{out}");
     }
 }
+
+#[test]
+fn compare_prints_four_meshers_and_json_lines() {
+    let (code, out, err) = kdcontour(&[
+        "compare",
+        "--scene",
+        "disk_pole",
+        "--res",
+        "48",
+        "--threshold",
+        "0.01",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    for m in [
+        "marching-cubes",
+        "dmc",
+        "octree",
+        "kdtree",
+        "k-d / octree triangles",
+    ] {
+        assert!(out.contains(m), "{out}");
+    }
+    let (code, out, err) = kdcontour(&["compare", "--scene", "torus", "--res", "32", "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let lines: Vec<serde_json::Value> = out
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let names: Vec<&str> = lines
+        .iter()
+        .map(|v| v["mesher"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["marching-cubes", "dmc", "octree", "kdtree"]);
+    for v in &lines {
+        assert_eq!(v["watertight"], true, "{v}");
+        assert_eq!(v["manifold"], true, "{v}");
+        assert_eq!(v["euler"], 0, "{v}");
+    }
+}
+
+#[test]
+fn volumes_and_meshes_from_the_command_line() {
+    let dir = std::env::temp_dir().join(format!("kdcontour-cli-vol-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let nii = dir.join("head.nii.gz");
+    let (code, out, err) = kdcontour(&["phantom", "--res", "48", "--out", nii.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("--iso 1.5"), "{out}");
+    let (code, out, err) = kdcontour(&[
+        "mesh",
+        "--volume",
+        nii.to_str().unwrap(),
+        "--iso",
+        "1.5",
+        "--res",
+        "48",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    assert_eq!(v["watertight"], true);
+    assert_eq!(v["manifold"], true);
+
+    // A raw volume: 16^3 u8 ball.
+    let raw = dir.join("ball.raw");
+    let bytes: Vec<u8> = (0..16 * 16 * 16)
+        .map(|i: i32| {
+            let (x, y, z) = (i % 16, (i / 16) % 16, i / 256);
+            let d = (((x - 8) * (x - 8) + (y - 8) * (y - 8) + (z - 8) * (z - 8)) as f32).sqrt();
+            (200.0 - 30.0 * d).max(0.0) as u8
+        })
+        .collect();
+    std::fs::write(&raw, &bytes).unwrap();
+    let r = raw.to_str().unwrap();
+    let (code, out, err) = kdcontour(&[
+        "compare",
+        "--volume",
+        r,
+        "--dims",
+        "16,16,16",
+        "--type",
+        "u8",
+        "--iso",
+        "100",
+        "--spacing",
+        "1,1,2",
+        "--res",
+        "24",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(out.lines().count(), 4);
+    let (code, _, err) = kdcontour(&[
+        "mesh", "--volume", r, "--dims", "16,16,15", "--type", "u8", "--iso", "100",
+    ]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--dims"), "{err}");
+    let (code, _, err) = kdcontour(&["mesh", "--volume", r, "--type", "u8", "--iso", "100"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("needs --dims"), "{err}");
+    let (code, _, err) = kdcontour(&[
+        "mesh", "--volume", r, "--dims", "16,16,16", "--type", "u7", "--iso", "100",
+    ]);
+    assert_eq!(code, 2);
+    assert!(err.contains("u8, u16, i16 or f32"), "{err}");
+    let (code, _, err) = kdcontour(&["mesh", "--volume", r, "--dims", "16,16,16", "--type", "u8"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--iso is required"), "{err}");
+
+    // A mesh written by `mesh --out`, read back with `--mesh`.
+    let obj = dir.join("torus.obj");
+    let (code, _, err) = kdcontour(&[
+        "mesh",
+        "--scene",
+        "torus",
+        "--res",
+        "24",
+        "--threshold",
+        "-1",
+        "--out",
+        obj.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let (code, out, err) = kdcontour(&[
+        "mesh",
+        "--mesh",
+        obj.to_str().unwrap(),
+        "--res",
+        "32",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    assert_eq!(v["euler"], 0, "{v}");
+    assert_eq!(v["watertight"], true);
+    let bad = dir.join("bad.obj");
+    std::fs::write(&bad, "v 0 0 0\nf 1 2 3\n").unwrap();
+    let (code, _, err) = kdcontour(&["mesh", "--mesh", bad.to_str().unwrap()]);
+    assert_eq!(code, 2);
+    assert!(err.contains("line 2"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -21,6 +21,14 @@
 //! assert!(validate(&coarse, None).is_closed_manifold());
 //! ```
 //!
+//! ## Inputs and baselines
+//! - Fields: [`field::sdf`] primitives, [`field::csg`] trees and JSON scene files,
+//!   [`field::terrain`] noise, [`field::volume`] sampled volumes (loaded by
+//!   [`io::volume`] from raw or NIfTI-1 files), [`field::mesh_sdf`] triangle meshes
+//!   (loaded by [`io::mesh`] from OBJ or PLY), or any [`Field`].
+//! - Baselines on the same Hermite data ([`meshers`]): Marching Cubes ([`mc`]),
+//!   uniform Dual Marching Cubes ([`dmc`]) and the octree ([`Partition::Octree`]).
+//!
 //! ## What the mesher guarantees
 //! - **Watertight, 2-manifold, consistently oriented** output for a surface that is
 //!   closed inside the grid, at every threshold. Cells hold up to four vertices (Dual
