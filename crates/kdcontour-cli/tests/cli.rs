@@ -285,3 +285,40 @@ fn volumes_and_meshes_from_the_command_line() {
     assert!(err.contains("line 2"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn world_writes_a_welded_closed_mesh() {
+    let dir = std::env::temp_dir().join(format!("kdcontour-cli-world-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("world.ply");
+    for extra in [["--thresholds", "random:3"], ["--camera", "0.2,0.9,-1.5"]] {
+        let (code, stdout, err) = kdcontour(&[
+            "world",
+            "--scene",
+            "torus",
+            "--chunks",
+            "3,3,3",
+            "--chunk-res",
+            "12",
+            extra[0],
+            extra[1],
+            "--out",
+            out.to_str().unwrap(),
+            "--json",
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+        assert_eq!(v["watertight"], true, "{v}");
+        assert_eq!(v["manifold"], true, "{v}");
+        assert_eq!(v["euler"], 0, "{v}");
+        assert!(v["seam_triangles"].as_u64().unwrap() > 0, "{v}");
+        assert!(std::fs::metadata(&out).unwrap().len() > 1000);
+    }
+    let (code, _, err) = kdcontour(&["world", "--scene", "torus", "--thresholds", "sometimes"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("random:SEED"), "{err}");
+    let (code, _, err) = kdcontour(&["world", "--scene", "torus"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--camera"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -83,6 +83,7 @@ fn terrain_chunk(c: &mut Criterion) {
         origin: glam::Vec3::new(0.0, -16.0, 0.0),
         cell_size: 1.0,
         cells: glam::UVec3::splat(32),
+        offset: glam::IVec3::ZERO,
     };
     let settings = Settings::default();
     let mut g = c.benchmark_group("terrain_chunk_32");

@@ -1,13 +1,16 @@
 //! The uniform sampling grid a volume is meshed on.
 
 use crate::error::{Error, Result};
-use glam::{UVec3, Vec3};
+use glam::{IVec3, UVec3, Vec3};
 
 /// Largest number of cells along one axis (cell coordinates are stored as `u16`).
 pub const MAX_CELLS_PER_AXIS: u32 = 65_000;
 
-/// A box of `cells` cubic cells of side `cell_size`, starting at `origin` (world
-/// units). Corners are at `origin + i * cell_size` for `i` in `0..=cells`.
+/// A box of `cells` cubic cells of side `cell_size` on a lattice anchored at `origin`
+/// (world units). Corner `i` (for `i` in `0..=cells`) is at
+/// `origin + (i + offset) * cell_size`, the sum taken in integers first, so two grids
+/// on the same lattice (neighbouring chunks) sample a shared corner at bitwise the
+/// same point and agree on its sign.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Grid {
     /// World position of corner (0, 0, 0).
@@ -16,6 +19,9 @@ pub struct Grid {
     pub cell_size: f32,
     /// Cells along x, y, z.
     pub cells: UVec3,
+    /// Lattice index of corner (0, 0, 0) (zero for a standalone grid).
+    #[serde(default)]
+    pub offset: IVec3,
 }
 
 impl Grid {
@@ -29,6 +35,7 @@ impl Grid {
                 2.0 * half / res as f32
             },
             cells: UVec3::splat(res),
+            offset: IVec3::ZERO,
         }
     }
 
@@ -79,17 +86,17 @@ impl Grid {
 
     /// World position of the corner with integer coordinates `c`.
     pub fn corner_pos(&self, c: UVec3) -> Vec3 {
-        self.origin + c.as_vec3() * self.cell_size
+        self.origin + (c.as_ivec3() + self.offset).as_vec3() * self.cell_size
     }
 
     /// World position of a point given in grid units (cell coordinates).
     pub fn to_world(&self, local: Vec3) -> Vec3 {
-        self.origin + local * self.cell_size
+        self.origin + (local + self.offset.as_vec3()) * self.cell_size
     }
 
     /// Grid units of a world position.
     pub fn to_local(&self, world: Vec3) -> Vec3 {
-        (world - self.origin) / self.cell_size
+        (world - self.origin) / self.cell_size - self.offset.as_vec3()
     }
 
     /// Linear index of corner `(x, y, z)`, x fastest.

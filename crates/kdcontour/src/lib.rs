@@ -70,6 +70,7 @@ pub mod meshers;
 pub mod qef;
 pub mod scenes;
 pub mod validate;
+pub mod world;
 
 pub use error::{Error, Result, SceneError};
 pub use field::csg::{Csg, CsgNode};
@@ -78,6 +79,7 @@ pub use grid::Grid;
 pub use kdtree::{BuildStats, KdTree, Partition};
 pub use mesh::IndexedMesh;
 pub use validate::{validate, MeshReport};
+pub use world::{ChunkWorld, Lod};
 
 use std::time::Instant;
 

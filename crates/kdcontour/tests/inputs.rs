@@ -29,6 +29,7 @@ fn fitted_grid(lo: Vec3, hi: Vec3, res: u32) -> Grid {
         origin: lo - Vec3::splat(cell),
         cell_size: cell,
         cells: ((hi - lo) / cell).ceil().as_uvec3() + UVec3::splat(2),
+        offset: glam::IVec3::ZERO,
     }
 }
 

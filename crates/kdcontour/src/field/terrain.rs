@@ -134,7 +134,7 @@ impl Field for Heightfield {
                 })
                 .collect();
             for y in 0..c.y {
-                let py = grid.origin.y + y as f32 * grid.cell_size;
+                let py = grid.corner_pos(glam::UVec3::new(0, y, z)).y;
                 for &h in &heights {
                     out[i] = py - h;
                     i += 1;

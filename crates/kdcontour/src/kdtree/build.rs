@@ -108,6 +108,24 @@ pub enum Partition {
 
 /// Builds the retained tree from Hermite data with the given partition.
 pub fn build_with(h: &Hermite, partition: Partition) -> KdTree {
+    let g = h.grid.cells;
+    build_in(
+        h,
+        partition,
+        [0, 0, 0],
+        [g.x as u16, g.y as u16, g.z as u16],
+    )
+}
+
+/// Builds the tree over the cells in the box `core_min..core_max` only (a chunk
+/// inside a grid with a halo: the halo's cells decide the face resolution of the
+/// core's boundary cells but belong to the neighbouring chunk).
+pub fn build_in(
+    h: &Hermite,
+    partition: Partition,
+    core_min: [u16; 3],
+    core_max: [u16; 3],
+) -> KdTree {
     let tables = CellTables::get();
     let cell_qef: Vec<Qef> = h
         .cells
@@ -127,25 +145,20 @@ pub fn build_with(h: &Hermite, partition: Partition) -> KdTree {
         tables,
     };
     let mut arena = Arena::new();
-    let root = if h.cells.is_empty() {
+    let inside = |c: &[u16; 3]| (0..3).all(|a| c[a] >= core_min[a] && c[a] < core_max[a]);
+    let mut ids: Vec<u32> = (0..h.cells.len() as u32)
+        .filter(|&i| inside(&h.cells[i as usize].coord))
+        .collect();
+    let root = if ids.is_empty() {
         NONE
     } else {
         let mut total = Qef::default();
-        for q in &ctx.cell_qef {
-            total += q;
+        for &i in &ids {
+            total += &ctx.cell_qef[i as usize];
         }
-        let mut ids: Vec<u32> = (0..h.cells.len() as u32).collect();
-        let g = h.grid.cells;
         let mut stack = Vec::new();
         build_node(
-            &ctx,
-            &mut arena,
-            &mut stack,
-            &mut ids,
-            [0, 0, 0],
-            [g.x as u16, g.y as u16, g.z as u16],
-            total,
-            0,
+            &ctx, &mut arena, &mut stack, &mut ids, core_min, core_max, total, 0,
         )
         .0
     };

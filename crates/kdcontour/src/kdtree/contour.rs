@@ -5,21 +5,121 @@
 //! A *leaf of threshold e* is a cell, or a clusterable node whose error is at most
 //! `e` (errors never decrease going up, so the first such node on the way down is
 //! the cut). Extraction reads the tree only: no field sample, no rebuild.
+//!
+//! The walk runs over several trees at once ([`Part`]s placed on one lattice of
+//! cells, each with its own threshold): that is how chunk seams are contoured.
+//! `face_proc` on two chunk roots and `edge_proc` on the four chunk roots around a
+//! chunk edge meet each tree at its own cut, so neighbours at different thresholds
+//! join without cracks.
 
-use super::{KdTree, NONE};
+use super::{KdNode, KdTree, NONE};
 use crate::cell::edge_index;
 use crate::mesh::IndexedMesh;
+use glam::IVec3;
 
 /// Quadrants around an edge along axis `d`, with `u = (d + 1) % 3` and
 /// `v = (d + 2) % 3`: 0 = (u-, v-), 1 = (u+, v-), 2 = (u+, v+), 3 = (u-, v+). In this
 /// order the quadrants turn counter-clockwise about +d.
-const QUADRANT: [(u32, u32); 4] = [(0, 0), (1, 0), (1, 1), (0, 1)];
+const QUADRANT: [(i32, i32); 4] = [(0, 0), (1, 0), (1, 1), (0, 1)];
 
-struct Walker<'a> {
-    tree: &'a KdTree,
-    e: f32,
-    vertex_of: Vec<u32>,
-    mesh: &'a mut IndexedMesh,
+/// One tree in a walk: where its cell (0, 0, 0) sits on the shared lattice, and the
+/// threshold it is cut at.
+#[derive(Clone, Copy)]
+pub struct Part<'a> {
+    /// The tree.
+    pub tree: &'a KdTree,
+    /// Lattice coordinates of the tree's cell (0, 0, 0).
+    pub offset: IVec3,
+    /// Its error threshold.
+    pub threshold: f32,
+}
+
+/// What to contour.
+#[derive(Clone, Copy, Debug)]
+pub enum Job {
+    /// Everything inside part `0`.
+    Cell(usize),
+    /// The face between part `low` and part `high`, neighbours along `axis`.
+    Face {
+        /// The part below the face.
+        low: usize,
+        /// The part above it.
+        high: usize,
+        /// The axis the face is perpendicular to.
+        axis: usize,
+    },
+    /// The edge along `axis` where four parts meet, given in quadrant order
+    /// (u-, v-), (u+, v-), (u+, v+), (u-, v+) with `u = (axis + 1) % 3`.
+    Edge {
+        /// The four parts.
+        parts: [usize; 4],
+        /// The edge's axis.
+        axis: usize,
+    },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct NodeRef {
+    t: u32,
+    n: u32,
+}
+
+impl NodeRef {
+    fn none() -> Self {
+        NodeRef {
+            t: u32::MAX,
+            n: NONE,
+        }
+    }
+    fn is_none(self) -> bool {
+        self.n == NONE
+    }
+}
+
+struct Walker<'a, 'b> {
+    parts: &'b [Part<'a>],
+    vertex_of: Vec<Vec<u32>>,
+    mesh: &'b mut IndexedMesh,
+}
+
+/// Contours `jobs` over `parts` into `out` (appended; vertices are shared between
+/// the jobs of one call).
+pub fn contour(parts: &[Part], jobs: &[Job], out: &mut IndexedMesh) {
+    let mut w = Walker {
+        parts,
+        vertex_of: parts
+            .iter()
+            .map(|p| vec![u32::MAX; p.tree.comps.len()])
+            .collect(),
+        mesh: out,
+    };
+    for job in jobs {
+        let root = |i: usize| NodeRef {
+            t: i as u32,
+            n: parts[i].tree.root,
+        };
+        match *job {
+            Job::Cell(i) => w.cell_proc(root(i)),
+            Job::Face { low, high, axis } => w.face_proc([root(low), root(high)], axis),
+            Job::Edge { parts: p, axis } => {
+                let r = p.map(root);
+                if r.iter().any(|x| x.is_none()) {
+                    continue;
+                }
+                // The edge line is the corner where the four boxes meet.
+                let b0 = w.bounds(r[0]);
+                let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+                let mut line = [0i32; 3];
+                line[u] = b0.1[u];
+                line[v] = b0.1[v];
+                let (lo, hi) = r.iter().fold((i32::MIN, i32::MAX), |(lo, hi), &x| {
+                    let b = w.bounds(x);
+                    (lo.max(b.0[axis]), hi.min(b.1[axis]))
+                });
+                w.edge_proc(r, axis, line, lo, hi);
+            }
+        }
+    }
 }
 
 impl KdTree {
@@ -27,16 +127,12 @@ impl KdTree {
     /// A negative threshold gives uniform Dual Marching Cubes.
     pub fn extract(&self, threshold: f32, out: &mut IndexedMesh) {
         out.reset();
-        if self.root == NONE {
-            return;
-        }
-        let mut w = Walker {
+        let parts = [Part {
             tree: self,
-            e: threshold,
-            vertex_of: vec![u32::MAX; self.comps.len()],
-            mesh: out,
-        };
-        w.cell_proc(self.root);
+            offset: IVec3::ZERO,
+            threshold,
+        }];
+        contour(&parts, &[Job::Cell(0)], out);
     }
 
     /// Contours the tree at `threshold` into a new mesh.
@@ -47,36 +143,75 @@ impl KdTree {
     }
 }
 
-impl Walker<'_> {
-    fn leaf(&self, n: u32) -> bool {
-        self.tree.is_leaf(n, self.e)
+impl Walker<'_, '_> {
+    fn part(&self, r: NodeRef) -> &Part<'_> {
+        &self.parts[r.t as usize]
     }
 
-    fn node(&self, n: u32) -> &super::KdNode {
-        &self.tree.nodes[n as usize]
+    fn node(&self, r: NodeRef) -> &KdNode {
+        &self.part(r).tree.nodes[r.n as usize]
     }
 
-    fn volume(&self, n: u32) -> u64 {
-        let nd = self.node(n);
-        (0..3).map(|a| (nd.max[a] - nd.min[a]) as u64).product()
+    fn leaf(&self, r: NodeRef) -> bool {
+        let p = self.part(r);
+        p.tree.is_leaf(r.n, p.threshold)
     }
 
-    fn cell_proc(&mut self, n: u32) {
-        if n == NONE || self.leaf(n) {
+    /// The node's box on the shared lattice.
+    fn bounds(&self, r: NodeRef) -> ([i32; 3], [i32; 3]) {
+        let nd = self.node(r);
+        let o = self.part(r).offset.to_array();
+        (
+            [0, 1, 2].map(|a| nd.min[a] as i32 + o[a]),
+            [0, 1, 2].map(|a| nd.max[a] as i32 + o[a]),
+        )
+    }
+
+    fn split(&self, r: NodeRef) -> (usize, i32, NodeRef, NodeRef) {
+        let nd = self.node(r);
+        let a = nd.axis as usize;
+        let child = |c: u32| {
+            if c == NONE {
+                NodeRef::none()
+            } else {
+                NodeRef { t: r.t, n: c }
+            }
+        };
+        (
+            a,
+            nd.split as i32 + self.part(r).offset[a],
+            child(nd.children[0]),
+            child(nd.children[1]),
+        )
+    }
+
+    fn volume(&self, r: NodeRef) -> i64 {
+        let (lo, hi) = self.bounds(r);
+        (0..3).map(|a| (hi[a] - lo[a]) as i64).product()
+    }
+
+    /// Whether lattice corner `g` is outside, read from part `t` (which must hold it).
+    fn outside(&self, t: u32, g: [i32; 3]) -> bool {
+        let p = &self.parts[t as usize];
+        let o = p.offset.to_array();
+        p.tree.is_outside([0, 1, 2].map(|a| (g[a] - o[a]) as u32))
+    }
+
+    fn cell_proc(&mut self, r: NodeRef) {
+        if r.is_none() || self.leaf(r) {
             return;
         }
-        let nd = *self.node(n);
-        let [a, b] = nd.children;
+        let (axis, _, a, b) = self.split(r);
         self.cell_proc(a);
         self.cell_proc(b);
-        if a != NONE && b != NONE {
-            self.face_proc([a, b], nd.axis as usize);
+        if !a.is_none() && !b.is_none() {
+            self.face_proc([a, b], axis);
         }
     }
 
     /// `n[0]` lies below the common face (perpendicular to `axis`), `n[1]` above.
-    fn face_proc(&mut self, n: [u32; 2], axis: usize) {
-        if n[0] == NONE || n[1] == NONE {
+    fn face_proc(&mut self, n: [NodeRef; 2], axis: usize) {
+        if n[0].is_none() || n[1].is_none() {
             return;
         }
         let leaf = [self.leaf(n[0]), self.leaf(n[1])];
@@ -91,9 +226,7 @@ impl Walker<'_> {
         } else {
             1
         };
-        let nd = *self.node(n[k]);
-        let s = nd.axis as usize;
-        let [lo_child, hi_child] = nd.children;
+        let (s, p, lo_child, hi_child) = self.split(n[k]);
         if s == axis {
             // Keep the child that touches the face.
             let mut m = n;
@@ -101,30 +234,26 @@ impl Walker<'_> {
             self.face_proc(m, axis);
             return;
         }
-        let other = self.node(n[1 - k]);
-        let flo = nd.min[s].max(other.min[s]);
-        let fhi = nd.max[s].min(other.max[s]);
-        let p = nd.split;
+        let (nb, ob) = (self.bounds(n[k]), self.bounds(n[1 - k]));
+        let flo = nb.0[s].max(ob.0[s]);
+        let fhi = nb.1[s].min(ob.1[s]);
+        let mut m = n;
         if p <= flo {
-            let mut m = n;
             m[k] = hi_child;
             self.face_proc(m, axis);
         } else if p >= fhi {
-            let mut m = n;
             m[k] = lo_child;
             self.face_proc(m, axis);
         } else {
-            let mut m = n;
             m[k] = lo_child;
             self.face_proc(m, axis);
             m[k] = hi_child;
             self.face_proc(m, axis);
             // The split plane cuts the face along an edge in direction d.
             let d = 3 - axis - s;
-            let (u, _v) = ((d + 1) % 3, (d + 2) % 3);
+            let u = (d + 1) % 3;
             let o = n[1 - k];
-            // Place children and the other node into quadrants.
-            let mut slots = [NONE; 4];
+            let mut slots = [NodeRef::none(); 4];
             for (q, &(qu, qv)) in QUADRANT.iter().enumerate() {
                 let (side_face, side_split) = if axis == u { (qu, qv) } else { (qv, qu) };
                 slots[q] = if side_face as usize == k {
@@ -137,21 +266,22 @@ impl Walker<'_> {
                     o
                 };
             }
-            let nd0 = self.node(n[0]);
-            let mut line = [0u16; 3];
-            line[axis] = nd0.max[axis];
+            let mut line = [0i32; 3];
+            line[axis] = self.bounds(n[0]).1[axis];
             line[s] = p;
-            let other_n = self.node(o);
-            let dlo = nd.min[d].max(other_n.min[d]);
-            let dhi = nd.max[d].min(other_n.max[d]);
+            let dlo = nb.0[d].max(ob.0[d]);
+            let dhi = nb.1[d].min(ob.1[d]);
             self.edge_proc(slots, d, line, dlo, dhi);
         }
     }
 
     /// The four nodes around the segment `[lo, hi]` along axis `d` through `line`
     /// (its coordinates on the two other axes).
-    fn edge_proc(&mut self, slots: [u32; 4], d: usize, line: [u16; 3], lo: u16, hi: u16) {
-        if slots.contains(&NONE) || lo >= hi || !self.has_crossing(d, line, lo, hi) {
+    fn edge_proc(&mut self, slots: [NodeRef; 4], d: usize, line: [i32; 3], lo: i32, hi: i32) {
+        if slots.iter().any(|s| s.is_none())
+            || lo >= hi
+            || !self.has_crossing(slots[0].t, d, line, lo, hi)
+        {
             return;
         }
         // Refine the largest non-leaf.
@@ -170,11 +300,8 @@ impl Walker<'_> {
             self.emit(slots, d, line, lo, hi);
             return;
         };
-        let nd = *self.node(n);
-        let s = nd.axis as usize;
-        let p = nd.split;
-        let [lc, hc] = nd.children;
-        let replace = |slots: [u32; 4], f: &dyn Fn(usize) -> u32| {
+        let (s, p, lc, hc) = self.split(n);
+        let replace = |f: &dyn Fn(usize) -> NodeRef| {
             let mut out = slots;
             for q in 0..4 {
                 if slots[q] == n {
@@ -185,12 +312,12 @@ impl Walker<'_> {
         };
         if s == d {
             if p > lo && p < hi {
-                self.edge_proc(replace(slots, &|_| lc), d, line, lo, p);
-                self.edge_proc(replace(slots, &|_| hc), d, line, p, hi);
+                self.edge_proc(replace(&|_| lc), d, line, lo, p);
+                self.edge_proc(replace(&|_| hc), d, line, p, hi);
             } else if p <= lo {
-                self.edge_proc(replace(slots, &|_| hc), d, line, lo, hi);
+                self.edge_proc(replace(&|_| hc), d, line, lo, hi);
             } else {
-                self.edge_proc(replace(slots, &|_| lc), d, line, lo, hi);
+                self.edge_proc(replace(&|_| lc), d, line, lo, hi);
             }
             return;
         }
@@ -199,7 +326,7 @@ impl Walker<'_> {
         let next = if p == l {
             // The split plane contains the edge: children take the quadrants on
             // their side.
-            replace(slots, &|q| {
+            replace(&|q| {
                 let side = if s == u { QUADRANT[q].0 } else { QUADRANT[q].1 };
                 if side == 0 {
                     lc
@@ -208,72 +335,74 @@ impl Walker<'_> {
                 }
             })
         } else if l < p {
-            replace(slots, &|_| lc)
+            replace(&|_| lc)
         } else {
-            replace(slots, &|_| hc)
+            replace(&|_| hc)
         };
         self.edge_proc(next, d, line, lo, hi);
     }
 
     /// Whether the segment `[lo, hi]` along `d` through `line` changes sign. Most
     /// segments the walk meets do not, and they need no refinement at all.
-    fn has_crossing(&self, d: usize, line: [u16; 3], lo: u16, hi: u16) -> bool {
-        let mut g = [line[0] as u32, line[1] as u32, line[2] as u32];
-        g[d] = lo as u32;
-        let first = self.tree.is_outside(g);
-        for t in lo as u32 + 1..=hi as u32 {
-            g[d] = t;
-            if self.tree.is_outside(g) != first {
+    fn has_crossing(&self, t: u32, d: usize, line: [i32; 3], lo: i32, hi: i32) -> bool {
+        let mut g = line;
+        g[d] = lo;
+        let first = self.outside(t, g);
+        for x in lo + 1..=hi {
+            g[d] = x;
+            if self.outside(t, g) != first {
                 return true;
             }
         }
         false
     }
 
-    fn emit(&mut self, slots: [u32; 4], d: usize, line: [u16; 3], lo: u16, hi: u16) {
+    fn emit(&mut self, slots: [NodeRef; 4], d: usize, line: [i32; 3], lo: i32, hi: i32) {
         let (u, v) = ((d + 1) % 3, (d + 2) % 3);
-        let mut g = [line[0] as u32, line[1] as u32, line[2] as u32];
-        g[d] = lo as u32;
-        let mut prev = self.tree.is_outside(g);
-        for t in lo as u32..hi as u32 {
+        let t0 = slots[0].t;
+        let mut g = line;
+        g[d] = lo;
+        let mut prev = self.outside(t0, g);
+        for x in lo..hi {
             let mut h = g;
-            h[d] = t + 1;
-            let next = self.tree.is_outside(h);
+            h[d] = x + 1;
+            let next = self.outside(t0, h);
             if next != prev {
                 let mut ids = [0u32; 4];
                 for (q, &(qu, qv)) in QUADRANT.iter().enumerate() {
                     let mut cell = g;
-                    cell[d] = t;
-                    cell[u] = cell[u] + qu - 1;
-                    cell[v] = cell[v] + qv - 1;
-                    let e = edge_index(d, 1 - qu, 1 - qv);
+                    cell[d] = x;
+                    cell[u] += qu - 1;
+                    cell[v] += qv - 1;
+                    let e = edge_index(d, (1 - qu) as u32, (1 - qv) as u32);
                     let leaf = slots[q];
-                    let local = self.tree.comp_of(leaf, cell, e);
-                    ids[q] = self.vertex(leaf, local);
+                    let o = self.part(leaf).offset.to_array();
+                    let local = [0, 1, 2].map(|a| (cell[a] - o[a]) as u32);
+                    let comp = self.part(leaf).tree.comp_of(leaf.n, local, e);
+                    ids[q] = self.vertex(leaf, comp);
                 }
                 // Inside at the low end: the surface faces +d, so keep the
                 // counter-clockwise quadrant order.
                 if prev {
                     ids.reverse();
                 }
-                self.polygon(ids);
+                self.mesh.push_polygon(ids);
             }
             prev = next;
         }
     }
 
-    fn vertex(&mut self, leaf: u32, local: u8) -> u32 {
-        let ci = (self.node(leaf).comp_start + local as u32) as usize;
-        if self.vertex_of[ci] == u32::MAX {
-            let c = self.tree.comps[ci];
-            self.vertex_of[ci] = self.mesh.positions.len() as u32;
-            self.mesh.positions.push(self.tree.grid.to_world(c.vertex));
+    fn vertex(&mut self, leaf: NodeRef, local: u8) -> u32 {
+        let parts = self.parts;
+        let tree = parts[leaf.t as usize].tree;
+        let ci = (tree.nodes[leaf.n as usize].comp_start + local as u32) as usize;
+        let slot = &mut self.vertex_of[leaf.t as usize][ci];
+        if *slot == u32::MAX {
+            let c = tree.comps[ci];
+            *slot = self.mesh.positions.len() as u32;
+            self.mesh.positions.push(tree.grid.to_world(c.vertex));
             self.mesh.normals.push(c.normal);
         }
-        self.vertex_of[ci]
-    }
-
-    fn polygon(&mut self, ids: [u32; 4]) {
-        self.mesh.push_polygon(ids);
+        *slot
     }
 }

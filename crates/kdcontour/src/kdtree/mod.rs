@@ -7,7 +7,8 @@ mod contour;
 use crate::grid::Grid;
 use glam::Vec3;
 
-pub use build::{build, build_with, Partition};
+pub use build::{build, build_in, build_with, Partition};
+pub use contour::{contour, Job, Part};
 
 /// Marks a missing child (an empty box pruned during construction).
 pub const NONE: u32 = u32::MAX;

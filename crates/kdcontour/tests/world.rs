@@ -1,0 +1,175 @@
+//! Chunked worlds: seams between chunks at different thresholds are watertight and
+//! manifold, with the topology of one grid over the same lattice; re-thresholding
+//! and rebuilding edited chunks keep it so.
+
+use glam::{UVec3, Vec3};
+use kdcontour::{
+    scenes, validate, ChunkWorld, CsgNode, Field, Grid, IndexedMesh, KdTree, Settings,
+};
+
+const LEVELS: [f32; 6] = [-1.0, 0.001, 0.01, 0.1, 1.0, 10.0];
+
+struct Lcg(u64);
+impl Lcg {
+    fn next(&mut self) -> usize {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 33) as usize
+    }
+}
+
+fn world(field: &dyn Field, chunks: u32, res: u32) -> ChunkWorld {
+    let cell = 2.0 / (chunks * res) as f32;
+    let mut w = ChunkWorld::new(
+        Vec3::splat(-1.0),
+        cell,
+        res,
+        UVec3::splat(chunks),
+        0.01,
+        Settings::default(),
+    )
+    .unwrap();
+    w.build_all(field).unwrap();
+    w
+}
+
+fn single_grid_euler(field: &dyn Field, cells: u32) -> i64 {
+    let tree = KdTree::build(field, &Grid::cube(1.0, cells), &Settings::default()).unwrap();
+    validate(&tree.mesh(-1.0), None).euler
+}
+
+fn randomise(w: &mut ChunkWorld, rng: &mut Lcg) {
+    let coords: Vec<UVec3> = w.coords().collect();
+    for c in coords {
+        w.set_threshold(c, LEVELS[rng.next() % LEVELS.len()]);
+    }
+}
+
+fn check(w: &ChunkWorld, euler: i64, what: &str) -> IndexedMesh {
+    let m = w.extract_all();
+    let r = validate(&m, None);
+    assert!(r.triangles > 0 && r.is_closed_manifold(), "{what}: {r:?}");
+    assert_eq!(r.euler, euler, "{what}: Euler differs from one grid");
+    // The per-chunk meshes (interior + owned seams) hold the same triangles.
+    let mut parts = 0;
+    let mut one = IndexedMesh::default();
+    for c in w.coords() {
+        w.extract_interior(c, &mut one);
+        parts += one.triangle_count();
+        w.extract_seams(c, &mut one);
+        parts += one.triangle_count();
+    }
+    assert_eq!(
+        parts,
+        m.triangle_count(),
+        "{what}: chunk meshes do not add up to the world"
+    );
+    m
+}
+
+#[test]
+fn random_thresholds_give_a_closed_manifold_with_one_grids_topology() {
+    let mut rng = Lcg(7);
+    for name in ["torus", "csg_mix", "gyroid", "caves", "disk_pole"] {
+        let scene = scenes::scene(name).unwrap();
+        let euler = single_grid_euler(&*scene.field, 36);
+        let mut w = world(&*scene.field, 3, 12);
+        for round in 0..4 {
+            randomise(&mut w, &mut rng);
+            check(&w, euler, &format!("{name} round {round}"));
+        }
+    }
+}
+
+#[test]
+fn edits_rebuild_only_the_touched_chunks_and_stay_closed() {
+    let base = r#"{"type":"torus","major_radius":0.55,"minor_radius":0.2}"#;
+    let field0 = CsgNode::from_json(base).unwrap().compile().unwrap();
+    let mut w = world(&field0, 3, 12);
+    let mut rng = Lcg(11);
+    randomise(&mut w, &mut rng);
+    // Brushes: add a ball across a chunk corner, dig one through the ring.
+    let edits = [
+        (Vec3::new(-0.33, 0.3, -0.35), 0.25, true),
+        (Vec3::new(0.55, 0.0, 0.0), 0.15, false),
+        (Vec3::new(0.0, -0.34, 0.33), 0.2, true),
+    ];
+    let mut json = base.to_string();
+    for (i, (centre, radius, add)) in edits.iter().enumerate() {
+        let ball = format!(
+            r#"{{"type":"sphere","radius":{radius},"center":[{},{},{}]}}"#,
+            centre.x, centre.y, centre.z
+        );
+        json = if *add {
+            format!(r#"{{"type":"union","children":[{json},{ball}]}}"#)
+        } else {
+            format!(r#"{{"type":"difference","a":{json},"b":{ball}}}"#)
+        };
+        let field = CsgNode::from_json(&json).unwrap().compile().unwrap();
+        // Rebuild the chunks whose box, grown by one cell, meets the brush.
+        let mut rebuilt = Vec::new();
+        let coords: Vec<UVec3> = w.coords().collect();
+        for c in coords {
+            let (lo, hi) = w.chunk_bounds(c);
+            let grow = w.cell_size;
+            let nearest = centre.clamp(lo - grow, hi + grow);
+            if nearest.distance(*centre) <= *radius {
+                w.build_chunk(c, &field).unwrap();
+                rebuilt.push(c);
+            }
+        }
+        assert!(
+            !rebuilt.is_empty() && rebuilt.len() < 27,
+            "edit {i} rebuilt {rebuilt:?}"
+        );
+        let euler = single_grid_euler(&field, 36);
+        check(&w, euler, &format!("after edit {i}"));
+        // A from-scratch world of the edited field gives the same mesh.
+        let mut fresh = world(&field, 3, 12);
+        for c in w.coords().collect::<Vec<_>>() {
+            fresh.set_threshold(c, w.threshold(c));
+        }
+        assert_eq!(
+            fresh.extract_all(),
+            w.extract_all(),
+            "edit {i}: incremental differs from a fresh build"
+        );
+    }
+}
+
+#[test]
+fn threshold_changes_never_resample_and_threads_agree() {
+    let scene = scenes::scene("csg_mix").unwrap();
+    let one = {
+        let cell = 2.0 / 36.0;
+        let mut w = ChunkWorld::new(
+            Vec3::splat(-1.0),
+            cell,
+            12,
+            UVec3::splat(3),
+            0.01,
+            Settings {
+                threads: 1,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        w.build_all(&*scene.field).unwrap();
+        w
+    };
+    let many = world(&*scene.field, 3, 12);
+    assert_eq!(one.extract_all(), many.extract_all());
+    assert!(one.seam_owners_touching(UVec3::splat(1)).len() == 7);
+    assert_eq!(one.seam_owners_touching(UVec3::ZERO), vec![UVec3::ZERO]);
+}
+
+#[test]
+fn bad_world_settings_are_errors() {
+    let s = Settings::default();
+    assert!(ChunkWorld::new(Vec3::ZERO, 0.1, 0, UVec3::ONE, 0.01, s.clone()).is_err());
+    assert!(ChunkWorld::new(Vec3::ZERO, 0.1, 8, UVec3::new(0, 1, 1), 0.01, s.clone()).is_err());
+    assert!(ChunkWorld::new(Vec3::ZERO, -0.1, 8, UVec3::ONE, 0.01, s.clone()).is_err());
+    assert!(ChunkWorld::new(Vec3::ZERO, 0.1, 8, UVec3::ONE, f32::NAN, s).is_err());
+}
