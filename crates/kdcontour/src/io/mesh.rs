@@ -1,4 +1,4 @@
-//! OBJ and PLY triangle meshes (input side; see [`crate::mesh`] for writing).
+//! OBJ and PLY triangle meshes (input side; see [`mod@crate::mesh`] for writing).
 
 use super::{bad, read};
 use crate::error::Result;
