@@ -58,6 +58,7 @@
 
 pub mod cell;
 pub mod dmc;
+pub mod edit;
 pub mod error;
 pub mod field;
 pub mod grid;
@@ -133,11 +134,26 @@ impl Settings {
         Ok(())
     }
 
-    /// Runs `f` on the configured number of threads.
+    /// Runs `f` on the configured number of threads. One thread uses a pool cached
+    /// per calling thread, so many small builds (chunk tasks on an engine's task
+    /// pool) neither oversubscribe the cores nor pay for a new pool each time.
     pub fn run<T: Send>(&self, f: impl FnOnce() -> T + Send) -> Result<T> {
         self.check()?;
         if self.threads == 0 {
             return Ok(f());
+        }
+        if self.threads == 1 {
+            thread_local! {
+                static ONE: Option<rayon::ThreadPool> =
+                    rayon::ThreadPoolBuilder::new().num_threads(1).build().ok();
+            }
+            return ONE.with(|pool| match pool {
+                Some(p) => Ok(p.install(f)),
+                None => Err(Error::InvalidSetting {
+                    name: "threads",
+                    reason: "could not start a worker thread".into(),
+                }),
+            });
         }
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(self.threads)

@@ -31,6 +31,7 @@ use crate::kdtree::{self, contour, Job, KdTree, Part};
 use crate::mesh::IndexedMesh;
 use crate::Settings;
 use glam::{IVec3, UVec3, Vec3};
+use std::sync::Arc;
 
 /// A grid of chunks with retained trees and per-chunk thresholds.
 pub struct ChunkWorld {
@@ -44,7 +45,7 @@ pub struct ChunkWorld {
     pub chunks: UVec3,
     /// Build settings used for every chunk.
     pub settings: Settings,
-    trees: Vec<Option<KdTree>>,
+    trees: Vec<Option<Arc<KdTree>>>,
     thresholds: Vec<f32>,
 }
 
@@ -126,9 +127,8 @@ impl ChunkWorld {
 
     /// Samples `field` for chunk `c` and builds its tree (replacing an old one).
     pub fn build_chunk(&mut self, c: UVec3, field: &dyn Field) -> Result<()> {
-        let tree = build_chunk_tree(&self.chunk_grid(c), self.chunk_res, field, &self.settings)?;
-        let i = self.index(c);
-        self.trees[i] = Some(tree);
+        let tree = self.chunk_build(c).run(field)?;
+        self.insert_tree(c, tree);
         Ok(())
     }
 
@@ -137,6 +137,8 @@ impl ChunkWorld {
         use rayon::prelude::*;
         let coords: Vec<UVec3> = self.coords().collect();
         let grids: Vec<Grid> = coords.iter().map(|&c| self.chunk_grid(c)).collect();
+        #[allow(clippy::redundant_locals)]
+        let grids = grids;
         let (res, settings) = (self.chunk_res, self.settings.clone());
         let inner = Settings {
             threads: 0,
@@ -149,8 +151,7 @@ impl ChunkWorld {
                 .collect()
         })?;
         for (c, t) in coords.into_iter().zip(trees) {
-            let i = self.index(c);
-            self.trees[i] = Some(t?);
+            self.insert_tree(c, t?);
         }
         Ok(())
     }
@@ -165,7 +166,54 @@ impl ChunkWorld {
 
     /// The tree of chunk `c`, if built.
     pub fn tree(&self, c: UVec3) -> Option<&KdTree> {
-        self.trees[self.index(c)].as_ref()
+        self.trees[self.index(c)].as_deref()
+    }
+
+    /// Everything needed to build chunk `c` elsewhere (a task, another thread).
+    pub fn chunk_build(&self, c: UVec3) -> ChunkBuild {
+        ChunkBuild {
+            grid: self.chunk_grid(c),
+            res: self.chunk_res,
+            settings: self.settings.clone(),
+        }
+    }
+
+    /// Installs a tree built by [`ChunkBuild::run`] for chunk `c`.
+    pub fn insert_tree(&mut self, c: UVec3, tree: KdTree) {
+        let i = self.index(c);
+        self.trees[i] = Some(Arc::new(tree));
+    }
+
+    /// Forgets chunk `c`'s tree (its mesh and the seams it owns become empty).
+    pub fn remove_tree(&mut self, c: UVec3) {
+        let i = self.index(c);
+        self.trees[i] = None;
+    }
+
+    /// What extracting chunk `c` (interior and owned seams) needs, detached from the
+    /// world so a task can run it: the trees of `c` and its upper neighbours, and
+    /// their thresholds. `None` when `c` has no tree.
+    pub fn snapshot(&self, c: UVec3) -> Option<ChunkSnapshot> {
+        let (parts, jobs) = self.owned_jobs(c);
+        if parts.is_empty() {
+            return None;
+        }
+        // owned_jobs lists chunk c first; map parts back to their Arcs.
+        let mut owned = Vec::new();
+        for p in &parts {
+            let cc = ((p.offset + IVec3::ONE) / self.chunk_res as i32).as_uvec3();
+            owned.push((
+                self.trees[self.index(cc)].clone().expect("built"),
+                p.offset,
+                p.threshold,
+            ));
+        }
+        let mut interior = vec![Job::Cell(0)];
+        interior.extend(jobs);
+        Some(ChunkSnapshot {
+            parts: owned,
+            jobs: interior,
+        })
     }
 
     /// The threshold chunk `c` is cut at.
@@ -203,7 +251,7 @@ impl ChunkWorld {
 
     fn part(&self, c: UVec3) -> Option<Part<'_>> {
         let i = self.index(c);
-        self.trees[i].as_ref().map(|tree| Part {
+        self.trees[i].as_deref().map(|tree| Part {
             tree,
             offset: (c * self.chunk_res).as_ivec3() - IVec3::ONE,
             threshold: self.thresholds[i],
@@ -317,8 +365,50 @@ impl ChunkWorld {
         self.trees
             .iter()
             .flatten()
-            .map(KdTree::retained_bytes)
+            .map(|t| t.retained_bytes())
             .sum()
+    }
+}
+
+/// A chunk build detached from its world (see [`ChunkWorld::chunk_build`]).
+#[derive(Clone, Debug)]
+pub struct ChunkBuild {
+    /// The chunk's grid, halo included.
+    pub grid: Grid,
+    /// Cells per chunk.
+    pub res: u32,
+    /// Build settings.
+    pub settings: Settings,
+}
+
+impl ChunkBuild {
+    /// Samples the field and builds the chunk's tree.
+    pub fn run(&self, field: &dyn Field) -> Result<KdTree> {
+        build_chunk_tree(&self.grid, self.res, field, &self.settings)
+    }
+}
+
+/// A chunk's extraction detached from its world (see [`ChunkWorld::snapshot`]).
+#[derive(Clone)]
+pub struct ChunkSnapshot {
+    parts: Vec<(Arc<KdTree>, IVec3, f32)>,
+    jobs: Vec<Job>,
+}
+
+impl ChunkSnapshot {
+    /// Contours the chunk's interior and its owned seams into `out` (cleared).
+    pub fn extract(&self, out: &mut IndexedMesh) {
+        out.reset();
+        let parts: Vec<Part> = self
+            .parts
+            .iter()
+            .map(|(t, offset, threshold)| Part {
+                tree: t,
+                offset: *offset,
+                threshold: *threshold,
+            })
+            .collect();
+        contour(&parts, &self.jobs, out);
     }
 }
 

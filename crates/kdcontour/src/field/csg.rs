@@ -768,6 +768,15 @@ pub struct Csg {
     root: Node,
 }
 
+impl Csg {
+    /// A sphere `(centre, radius)` outside which the field is at least the distance
+    /// to the sphere (so nothing there is inside), or `None` for unbounded trees
+    /// (planes, terrain).
+    pub fn bounding_sphere(&self) -> Option<(Vec3, f32)> {
+        self.root.bound.map(|b| (b.center, b.radius))
+    }
+}
+
 impl Field for Csg {
     fn value(&self, p: Vec3) -> f32 {
         self.root.value(p)

@@ -1,0 +1,348 @@
+//! The plugin in a headless app (MinimalPlugins, AssetPlugin, MeshPlugin,
+//! TransformPlugin): volumes mesh, edits rebuild exactly what they touch, nothing is
+//! lost under a stream of edits and camera moves, LOD never re-samples, and a
+//! panicking field is reported without taking the app down.
+
+use bevy::mesh::{MeshPlugin, VertexAttributeValues};
+use bevy::prelude::*;
+use bevy_kdcontour::prelude::*;
+use kdcontour::edit::EditedField;
+use kdcontour::{ChunkWorld, CsgNode, Field, IndexedMesh};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
+
+fn app(lod: bool) -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        AssetPlugin::default(),
+        MeshPlugin,
+        TransformPlugin,
+        KdContourPlugin {
+            settings: KdContourSettings {
+                lod: LodSettings {
+                    enabled: lod,
+                    base: 0.001,
+                    near: 0.3,
+                    ..Default::default()
+                },
+                ..Default::default()
+            },
+        },
+    ));
+    app
+}
+
+fn torus() -> Arc<dyn Field> {
+    Arc::new(
+        CsgNode::from_json(r#"{"type":"torus","major_radius":0.55,"minor_radius":0.2}"#)
+            .unwrap()
+            .compile()
+            .unwrap(),
+    )
+}
+
+/// 3x3x3 chunks of 8^3 cells over [-1, 1]^3.
+fn spawn(app: &mut App, field: Arc<dyn Field>) -> Entity {
+    app.world_mut()
+        .spawn((
+            KdVolume::new(field, UVec3::splat(3), 8, 2.0 / 24.0),
+            Transform::from_xyz(-1.0, -1.0, -1.0),
+        ))
+        .id()
+}
+
+fn settle(app: &mut App, volume: Entity) {
+    for _ in 0..5000 {
+        app.update();
+        if app
+            .world()
+            .get::<VolumeState>(volume)
+            .is_some_and(|s| s.is_settled())
+        {
+            // One more frame so the last uploads' commands are applied.
+            app.update();
+            return;
+        }
+        std::thread::sleep(std::time::Duration::from_micros(200));
+    }
+    panic!("the volume did not settle");
+}
+
+/// The mesh a chunk entity shows, as positions and indices.
+fn shown(app: &App, chunk: Entity) -> Option<(Vec<[f32; 3]>, Vec<u32>)> {
+    let handle = app.world().get::<Mesh3d>(chunk)?;
+    let mesh = app.world().resource::<Assets<Mesh>>().get(handle.id())?;
+    let Some(VertexAttributeValues::Float32x3(p)) = mesh.attribute(Mesh::ATTRIBUTE_POSITION) else {
+        panic!("no positions")
+    };
+    let idx = match mesh.indices() {
+        Some(bevy::mesh::Indices::U32(i)) => i.clone(),
+        other => panic!("{other:?}"),
+    };
+    Some((p.clone(), idx))
+}
+
+/// A from-scratch world of `field` at the thresholds `state` uses.
+fn fresh(field: &dyn Field, state: &VolumeState) -> ChunkWorld {
+    let w = state.world();
+    let mut f = ChunkWorld::new(
+        Vec3::ZERO,
+        w.cell_size,
+        w.chunk_res,
+        w.chunks,
+        0.01,
+        kdcontour::Settings::default(),
+    )
+    .unwrap();
+    f.build_all(field).unwrap();
+    for c in w.coords().collect::<Vec<_>>() {
+        f.set_threshold(c, w.threshold(c));
+    }
+    f
+}
+
+fn assert_matches_fresh(app: &App, volume: Entity, field: &dyn Field) {
+    let state = app.world().get::<VolumeState>(volume).unwrap();
+    let f = fresh(field, state);
+    let mut want = IndexedMesh::default();
+    let mut total = 0;
+    for c in f.coords().collect::<Vec<_>>() {
+        f.snapshot(c).unwrap().extract(&mut want);
+        let entity = state.chunk_entity(c).unwrap();
+        match shown(app, entity) {
+            None => assert!(
+                want.is_empty(),
+                "chunk {c} shows nothing but should show {} triangles",
+                want.triangle_count()
+            ),
+            Some((p, i)) => {
+                let wp: Vec<[f32; 3]> = want.positions.iter().map(|v| v.to_array()).collect();
+                assert_eq!(
+                    p, wp,
+                    "chunk {c}: positions differ from a from-scratch build"
+                );
+                assert_eq!(
+                    i, want.indices,
+                    "chunk {c}: indices differ from a from-scratch build"
+                );
+            }
+        }
+        total += want.triangle_count();
+    }
+    assert!(total > 0);
+}
+
+#[test]
+fn a_volume_meshes_every_chunk_with_surface_and_no_empty_one() {
+    let mut app = app(false);
+    let v = spawn(&mut app, torus());
+    settle(&mut app, v);
+    assert_matches_fresh(&app, v, &*torus());
+    // The torus misses some chunks entirely (corners of the cube).
+    let mut q = app.world_mut().query::<(&KdChunk, Option<&Mesh3d>)>();
+    let (mut meshed, mut empty) = (0, 0);
+    for (chunk, mesh) in q.iter(app.world()) {
+        match chunk.status {
+            ChunkStatus::Meshed => {
+                assert!(mesh.is_some() && chunk.triangles > 0);
+                meshed += 1
+            }
+            ChunkStatus::Empty => {
+                assert!(mesh.is_none());
+                empty += 1
+            }
+            ref s => panic!("chunk {} is {s:?}", chunk.coord),
+        }
+    }
+    assert_eq!(meshed + empty, 27);
+    assert!(meshed > 0 && empty > 0, "{meshed} meshed, {empty} empty");
+}
+
+#[test]
+fn one_edit_rebuilds_exactly_the_chunks_it_meets() {
+    let mut app = app(false);
+    let v = spawn(&mut app, torus());
+    settle(&mut app, v);
+    let before: Vec<(UVec3, usize)> = {
+        let s = app.world().get::<VolumeState>(v).unwrap();
+        s.world()
+            .coords()
+            .map(|c| (c, s.world().tree(c).unwrap() as *const _ as usize))
+            .collect()
+    };
+    // A ball around the chunk corner at (1/3, 1/3, 1/3) of the cube, local space.
+    let centre = Vec3::splat(2.0 / 3.0) + Vec3::new(0.02, 0.03, 0.01);
+    app.world_mut().write_message(ApplyEdit {
+        volume: v,
+        brush: Brush::sphere(centre, 0.1, BrushOp::Add),
+    });
+    app.update();
+    let applied: Vec<EditApplied> = app
+        .world_mut()
+        .resource_mut::<Messages<EditApplied>>()
+        .drain()
+        .collect();
+    assert_eq!(applied.len(), 1);
+    let mut rebuilt = applied[0].rebuilt.clone();
+    rebuilt.sort_by_key(|c| (c.z, c.y, c.x));
+    // The eight chunks around that corner.
+    let mut want: Vec<UVec3> = (0..8)
+        .map(|i| UVec3::new(i & 1, (i >> 1) & 1, (i >> 2) & 1))
+        .collect();
+    want.sort_by_key(|c| (c.z, c.y, c.x));
+    assert_eq!(rebuilt, want);
+    settle(&mut app, v);
+    let s = app.world().get::<VolumeState>(v).unwrap();
+    for (c, ptr) in before {
+        let now = s.world().tree(c).unwrap() as *const _ as usize;
+        assert_eq!(
+            now != ptr,
+            want.contains(&c),
+            "chunk {c}: rebuilt {}",
+            now != ptr
+        );
+    }
+    let field = s.field().clone();
+    assert_matches_fresh(&app, v, &field);
+}
+
+#[test]
+fn a_hundred_edits_and_camera_moves_lose_nothing() {
+    let mut app = app(true);
+    let v = spawn(&mut app, torus());
+    let cam = app
+        .world_mut()
+        .spawn((LodCamera, Transform::from_xyz(0.0, 0.0, 2.0)))
+        .id();
+    settle(&mut app, v);
+    let mut seed = 5u64;
+    let mut next = move || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 33) as f32 / (1u64 << 31) as f32
+    };
+    for i in 0..100 {
+        let centre = Vec3::new(next(), next(), next()) * 2.0;
+        let op = if next() < 0.5 {
+            BrushOp::Add
+        } else {
+            BrushOp::Subtract
+        };
+        app.world_mut().write_message(ApplyEdit {
+            volume: v,
+            brush: Brush::sphere(centre, 0.05 + 0.15 * next(), op),
+        });
+        if i % 7 == 0 {
+            let p = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 4.0 + Vec3::ONE;
+            app.world_mut()
+                .get_mut::<Transform>(cam)
+                .unwrap()
+                .translation = p;
+        }
+        for _ in 0..(next() * 3.0) as usize {
+            app.update();
+        }
+    }
+    settle(&mut app, v);
+    let s = app.world().get::<VolumeState>(v).unwrap();
+    assert_eq!(s.edit_log().len(), 100, "every edit is in the log");
+    let replayed = EditedField::replay(torus(), &s.edit_log()).unwrap();
+    assert_matches_fresh(&app, v, &replayed);
+}
+
+struct Counted {
+    inner: Arc<dyn Field>,
+    samples: Arc<AtomicUsize>,
+}
+
+impl Field for Counted {
+    fn value(&self, p: Vec3) -> f32 {
+        self.samples.fetch_add(1, Ordering::Relaxed);
+        self.inner.value(p)
+    }
+    fn lipschitz(&self) -> Option<f32> {
+        self.inner.lipschitz()
+    }
+}
+
+#[test]
+fn moving_the_camera_re_extracts_without_sampling() {
+    let mut app = app(true);
+    let samples = Arc::new(AtomicUsize::new(0));
+    let v = spawn(
+        &mut app,
+        Arc::new(Counted {
+            inner: torus(),
+            samples: samples.clone(),
+        }),
+    );
+    let cam = app
+        .world_mut()
+        .spawn((LodCamera, Transform::from_xyz(0.0, 0.0, 1.5)))
+        .id();
+    settle(&mut app, v);
+    let before = samples.load(Ordering::Relaxed);
+    let thresholds = |app: &App| {
+        let s = app.world().get::<VolumeState>(v).unwrap();
+        s.world()
+            .coords()
+            .map(|c| s.world().threshold(c))
+            .collect::<Vec<_>>()
+    };
+    let t0 = thresholds(&app);
+    app.world_mut()
+        .resource_mut::<Messages<LodChanged>>()
+        .clear();
+    app.world_mut()
+        .get_mut::<Transform>(cam)
+        .unwrap()
+        .translation = Vec3::new(2.0, 2.0, -0.5);
+    settle(&mut app, v);
+    let t1 = thresholds(&app);
+    assert_ne!(t0, t1, "thresholds follow the camera");
+    assert_eq!(
+        samples.load(Ordering::Relaxed),
+        before,
+        "a threshold change sampled the field"
+    );
+    assert!(!app.world().resource::<Messages<LodChanged>>().is_empty());
+}
+
+struct Panics;
+impl Field for Panics {
+    fn value(&self, p: Vec3) -> f32 {
+        if p.x > 1.4 {
+            panic!("this field has no values beyond x = 1.4");
+        }
+        p.distance(Vec3::splat(1.0)) - 0.6
+    }
+}
+
+#[test]
+fn a_panicking_field_is_reported_and_the_app_keeps_running() {
+    let mut app = app(false);
+    let v = spawn(&mut app, Arc::new(Panics));
+    settle(&mut app, v);
+    let failed: Vec<ChunkFailed> = app
+        .world_mut()
+        .resource_mut::<Messages<ChunkFailed>>()
+        .drain()
+        .collect();
+    assert!(!failed.is_empty());
+    assert!(
+        failed.iter().all(|f| f.error.contains("no values beyond")),
+        "{failed:?}"
+    );
+    let mut q = app.world_mut().query::<&KdChunk>();
+    let statuses: Vec<ChunkStatus> = q.iter(app.world()).map(|c| c.status.clone()).collect();
+    assert!(statuses.iter().any(|s| matches!(s, ChunkStatus::Failed(_))));
+    assert!(
+        statuses.contains(&ChunkStatus::Meshed),
+        "chunks away from the panic still mesh"
+    );
+    for _ in 0..10 {
+        app.update();
+    }
+}
