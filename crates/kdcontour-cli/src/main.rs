@@ -87,45 +87,43 @@ fn parse_uvec3(s: &str) -> Result<glam::UVec3, String> {
     Ok(glam::UVec3::new(t[0] as u32, t[1] as u32, t[2] as u32))
 }
 
+/// Options `mesh` and `compare` share.
+#[derive(clap::Args)]
+struct RunArgs {
+    /// Cells per axis (along the longest side for volumes and meshes).
+    #[arg(long, default_value_t = 64)]
+    res: u32,
+    /// Error threshold in squared cells (negative = uniform Dual Marching Cubes).
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
+    threshold: f32,
+    /// Worker threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Print JSON lines instead of a summary (one line for `mesh`, one per mesher
+    /// for `compare`).
+    #[arg(long)]
+    json: bool,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Mesh a scene in [-1, 1]^3 and report size, times and mesh checks.
     Mesh {
         #[command(flatten)]
         input: Input,
-        /// Cells per axis.
-        #[arg(long, default_value_t = 64)]
-        res: u32,
-        /// Error threshold in squared cells (negative = uniform Dual Marching Cubes).
-        #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
-        threshold: f32,
-        /// Worker threads (0 = all cores).
-        #[arg(long, default_value_t = 0)]
-        threads: usize,
+        #[command(flatten)]
+        run: RunArgs,
         /// Write the mesh to this .obj or .ply file.
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Print exactly one JSON line instead of a summary.
-        #[arg(long)]
-        json: bool,
     },
     /// Mesh one input with Marching Cubes, uniform DMC, the octree and the k-d tree
     /// side by side (same samples, same threshold).
     Compare {
         #[command(flatten)]
         input: Input,
-        /// Cells per axis.
-        #[arg(long, default_value_t = 64)]
-        res: u32,
-        /// Error threshold in squared cells for the adaptive meshers.
-        #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
-        threshold: f32,
-        /// Worker threads (0 = all cores).
-        #[arg(long, default_value_t = 0)]
-        threads: usize,
-        /// Print one JSON line per mesher instead of a table.
-        #[arg(long)]
-        json: bool,
+        #[command(flatten)]
+        run: RunArgs,
     },
     /// Mesh a scene as a grid of chunks, each at its own threshold, and write the
     /// union of every chunk's mesh and seams as one welded mesh (so the seams can be
@@ -324,10 +322,13 @@ fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
         Command::Compare {
             input,
-            res,
-            threshold,
-            threads,
-            json,
+            run:
+                RunArgs {
+                    res,
+                    threshold,
+                    threads,
+                    json,
+                },
         } => {
             check_threshold(threshold)?;
             let loaded = load(&input)?;
@@ -527,11 +528,14 @@ fn run(cli: Cli) -> Result<(), String> {
         }
         Command::Mesh {
             input,
-            res,
-            threshold,
-            threads,
+            run:
+                RunArgs {
+                    res,
+                    threshold,
+                    threads,
+                    json,
+                },
             out,
-            json,
         } => {
             check_threshold(threshold)?;
             let loaded = load(&input)?;

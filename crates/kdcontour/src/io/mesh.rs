@@ -223,8 +223,10 @@ pub fn parse_ply(bytes: &[u8]) -> std::result::Result<TriMesh, String> {
                         .next()
                         .ok_or(format!("truncated: {name} {r} of {n} is missing"))?;
                     let mut tok = row.split_whitespace();
-                    let mut num = |what: &str| -> std::result::Result<f64, String> {
-                        let t = tok.next().ok_or(format!("{name} {r}: missing {what}"))?;
+                    let mut num = |_: Scalar| -> std::result::Result<f64, String> {
+                        let t = tok
+                            .next()
+                            .ok_or(format!("{name} {r}: a value is missing"))?;
                         t.parse()
                             .map_err(|_| format!("{name} {r}: `{t}` is not a number"))
                     };
@@ -244,7 +246,7 @@ pub fn parse_ply(bytes: &[u8]) -> std::result::Result<TriMesh, String> {
                         at += s.size();
                         Ok(s.read(b, big))
                     };
-                    read_row_binary(name, props, &mut m, &mut vertex_count, &mut num_at)?;
+                    read_row(name, props, &mut m, &mut vertex_count, &mut num_at)?;
                 }
             }
         }
@@ -277,59 +279,21 @@ fn push_face(
     Ok(())
 }
 
-type NumFn<'a> = dyn FnMut(&str) -> std::result::Result<f64, String> + 'a;
+/// Reads the next number of the type given (ascii ignores the type).
+type NextFn<'a> = dyn FnMut(Scalar) -> std::result::Result<f64, String> + 'a;
 
 fn read_row(
     name: &str,
     props: &[Prop],
     m: &mut TriMesh,
     vertex_count: &mut usize,
-    num: &mut NumFn,
-) -> std::result::Result<(), String> {
-    let mut xyz = [0f32; 3];
-    for p in props {
-        match p {
-            Prop::One(pn, _) => {
-                let v = num(pn)?;
-                if name == "vertex" {
-                    match pn.as_str() {
-                        "x" => xyz[0] = v as f32,
-                        "y" => xyz[1] = v as f32,
-                        "z" => xyz[2] = v as f32,
-                        _ => {}
-                    }
-                }
-            }
-            Prop::List(pn, ..) => {
-                let count = num("list length")? as usize;
-                let idx: Vec<f64> = (0..count)
-                    .map(|_| num("index"))
-                    .collect::<std::result::Result<_, _>>()?;
-                if name == "face" && (pn == "vertex_indices" || pn == "vertex_index") {
-                    push_face(m, &idx, *vertex_count, m.triangles.len())?;
-                }
-            }
-        }
-    }
-    if name == "vertex" {
-        m.positions.push(Vec3::from(xyz));
-        *vertex_count += 1;
-    }
-    Ok(())
-}
-
-fn read_row_binary(
-    name: &str,
-    props: &[Prop],
-    m: &mut TriMesh,
-    vertex_count: &mut usize,
-    num_at: &mut dyn FnMut(Scalar) -> std::result::Result<f64, String>,
+    next: &mut NextFn,
 ) -> std::result::Result<(), String> {
     let mut xyz = [0f32; 3];
     for p in props {
         match p {
             Prop::One(pn, s) => {
-                let v = num_at(*s)?;
+                let v = next(*s)?;
                 if name == "vertex" {
                     match pn.as_str() {
                         "x" => xyz[0] = v as f32,
@@ -340,9 +304,9 @@ fn read_row_binary(
                 }
             }
             Prop::List(pn, c, i) => {
-                let count = num_at(*c)? as usize;
+                let count = next(*c)? as usize;
                 let idx: Vec<f64> = (0..count)
-                    .map(|_| num_at(*i))
+                    .map(|_| next(*i))
                     .collect::<std::result::Result<_, _>>()?;
                 if name == "face" && (pn == "vertex_indices" || pn == "vertex_index") {
                     push_face(m, &idx, *vertex_count, m.triangles.len())?;
