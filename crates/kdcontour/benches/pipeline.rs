@@ -127,11 +127,79 @@ fn terrain_chunk(c: &mut Criterion) {
     g.finish();
 }
 
+/// Edit-to-mesh latency: a brush lands in a 32³ terrain chunk; rebuild the chunks
+/// it reaches, then re-extract every chunk whose mesh or seams touch them.
+fn edit_latency(c: &mut Criterion) {
+    use kdcontour::edit::{Brush, BrushOp, EditedField};
+    use kdcontour::field::terrain::{Heightfield, HeightfieldParams};
+    use kdcontour::ChunkWorld;
+    use std::sync::Arc;
+    let base: Arc<dyn kdcontour::Field> = Arc::new(Heightfield::new(HeightfieldParams {
+        seed: 3,
+        base: 48.0,
+        amplitude: 10.0,
+        frequency: 0.015,
+        octaves: 5,
+    }));
+    let settings = Settings {
+        threads: 1,
+        ..Default::default()
+    };
+    let mut world = ChunkWorld::new(
+        glam::Vec3::ZERO,
+        1.0,
+        32,
+        glam::UVec3::splat(3),
+        0.01,
+        settings,
+    )
+    .unwrap();
+    world.build_all(&*base).unwrap();
+    let centre = glam::Vec3::new(48.0, 48.0, 48.0);
+    let field = EditedField::new(base)
+        .with_edit(Brush::sphere(centre, 4.0, BrushOp::Subtract))
+        .unwrap();
+    let (lo_r, r) = field.last_reach().unwrap();
+    let touched: Vec<glam::UVec3> = world
+        .coords()
+        .filter(|&c| {
+            let (lo, hi) = world.chunk_bounds(c);
+            lo_r.clamp(lo - glam::Vec3::ONE, hi + glam::Vec3::ONE)
+                .distance(lo_r)
+                <= r
+        })
+        .collect();
+    println!("edit latency: the brush reaches {} chunk(s)", touched.len());
+    let mut g = c.benchmark_group("edit_latency_32");
+    g.sample_size(20)
+        .measurement_time(Duration::from_secs(3))
+        .warm_up_time(Duration::from_secs(1));
+    let mut mesh = IndexedMesh::default();
+    g.bench_function("rebuild+reextract/1", |b| {
+        b.iter(|| {
+            for &t in &touched {
+                world.build_chunk(t, &field).unwrap();
+            }
+            let mut owners: Vec<glam::UVec3> = touched
+                .iter()
+                .flat_map(|&t| world.seam_owners_touching(t))
+                .collect();
+            owners.sort_by_key(|c| (c.z, c.y, c.x));
+            owners.dedup();
+            for o in owners {
+                world.snapshot(o).unwrap().extract(&mut mesh);
+            }
+            black_box(mesh.triangle_count())
+        })
+    });
+    g.finish();
+}
+
 fn pipeline(c: &mut Criterion) {
     stages(c, "disk_pole", 128, 0.01);
     stages(c, "terrain", 32, 0.01);
     stages(c, "sphere", 64, 0.01);
 }
 
-criterion_group!(benches, terrain_chunk, pipeline);
+criterion_group!(benches, terrain_chunk, edit_latency, pipeline);
 criterion_main!(benches);
