@@ -556,8 +556,8 @@ fn schedule_tasks(
         .sum();
     for mut state in &mut volumes {
         let state = &mut *state;
-        // Builds first, nearest-first order is left to the caller's edits; sort
-        // for determinism.
+        // Builds before extractions (an extraction waits for its chunk's build), in
+        // a fixed order so runs are reproducible.
         let mut todo: Vec<UVec3> = state
             .need_build
             .iter()
@@ -611,6 +611,8 @@ fn schedule_tasks(
                 return;
             }
             state.need_extract.remove(&c);
+            // A newer extraction replaces a running one: dropping its task cancels
+            // it (its stamp would be stale anyway).
             let Some(snapshot) = state.world.snapshot(c) else {
                 continue;
             };
@@ -706,7 +708,6 @@ fn to_bevy_mesh(m: &IndexedMesh) -> Mesh {
     .with_inserted_indices(Indices::U32(m.indices.clone()))
 }
 
-#[allow(clippy::too_many_arguments)]
 fn apply_meshes(
     mut commands: Commands,
     settings: Res<KdContourSettings>,

@@ -137,8 +137,6 @@ impl ChunkWorld {
         use rayon::prelude::*;
         let coords: Vec<UVec3> = self.coords().collect();
         let grids: Vec<Grid> = coords.iter().map(|&c| self.chunk_grid(c)).collect();
-        #[allow(clippy::redundant_locals)]
-        let grids = grids;
         let (res, settings) = (self.chunk_res, self.settings.clone());
         let inner = Settings {
             threads: 0,
