@@ -123,32 +123,35 @@ pub(crate) fn comp_in(nodes: &[KdNode], comps: &[Comp], x: u32, cell: [u32; 3], 
     if nodes[x as usize].comp_count == 1 {
         return 0;
     }
-    let mut path = [0u32; 128];
-    let mut depth = 0;
-    let mut n = x;
-    loop {
-        let node = &nodes[n as usize];
-        if node.axis == CELL {
-            break;
+    thread_local! {
+        // The descent path, reused across calls (no allocation on this hot path,
+        // and no fixed depth limit: a k-d tree has no hard bound on its depth).
+        static PATH: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
+    }
+    PATH.with(|path| {
+        let mut path = path.borrow_mut();
+        path.clear();
+        let mut n = x;
+        loop {
+            let node = &nodes[n as usize];
+            if node.axis == CELL {
+                break;
+            }
+            let a = node.axis as usize;
+            let side = (cell[a] >= node.split as u32) as usize;
+            path.push(n);
+            n = node.children[side];
+            debug_assert!(n != NONE, "cell {cell:?} is not in the subtree");
         }
-        let a = node.axis as usize;
-        let side = (cell[a] >= node.split as u32) as usize;
-        path[depth] = n;
-        depth += 1;
-        n = node.children[side];
-        debug_assert!(n != NONE, "cell {cell:?} is not in the subtree");
-    }
-    let node = &nodes[n as usize];
-    let mut local = crate::cell::CellTables::get()
-        .cell(node.config, node.mask)
-        .edge_comp[edge];
-    debug_assert!(local != crate::cell::NO_COMP);
-    // Walk up from the cell to just below x.
-    let mut child = n;
-    while depth > 0 {
-        local = comps[(nodes[child as usize].comp_start + local as u32) as usize].parent;
-        depth -= 1;
-        child = path[depth];
-    }
-    local
+        let node = &nodes[n as usize];
+        let mut local = crate::cell::CellTables::get().cell(node.config, node.mask).edge_comp[edge];
+        debug_assert!(local != crate::cell::NO_COMP);
+        // Walk up from the cell to just below x.
+        let mut child = n;
+        while let Some(parent) = path.pop() {
+            local = comps[(nodes[child as usize].comp_start + local as u32) as usize].parent;
+            child = parent;
+        }
+        local
+    })
 }
