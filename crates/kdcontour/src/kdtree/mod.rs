@@ -144,7 +144,9 @@ pub(crate) fn comp_in(nodes: &[KdNode], comps: &[Comp], x: u32, cell: [u32; 3], 
             debug_assert!(n != NONE, "cell {cell:?} is not in the subtree");
         }
         let node = &nodes[n as usize];
-        let mut local = crate::cell::CellTables::get().cell(node.config, node.mask).edge_comp[edge];
+        let mut local = crate::cell::CellTables::get()
+            .cell(node.config, node.mask)
+            .edge_comp[edge];
         debug_assert!(local != crate::cell::NO_COMP);
         // Walk up from the cell to just below x.
         let mut child = n;
