@@ -105,6 +105,26 @@ struct RunArgs {
     json: bool,
 }
 
+impl RunArgs {
+    /// Checks the threshold, loads the input and fits its grid: the set-up `mesh`
+    /// and `compare` share.
+    fn prepare(
+        input: &Input,
+        res: u32,
+        threshold: f32,
+        threads: usize,
+    ) -> Result<(String, Box<dyn Field>, Grid, Settings), String> {
+        check_threshold(threshold)?;
+        let loaded = load(input)?;
+        let grid = grid_for(&loaded, res);
+        let settings = Settings {
+            threads,
+            ..Default::default()
+        };
+        Ok((loaded.name, loaded.field, grid, settings))
+    }
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Mesh a scene in [-1, 1]^3 and report size, times and mesh checks.
@@ -330,14 +350,7 @@ fn run(cli: Cli) -> Result<(), String> {
                     json,
                 },
         } => {
-            check_threshold(threshold)?;
-            let loaded = load(&input)?;
-            let grid = grid_for(&loaded, res);
-            let (scene, field) = (loaded.name, loaded.field);
-            let settings = Settings {
-                threads,
-                ..Default::default()
-            };
+            let (scene, field, grid, settings) = RunArgs::prepare(&input, res, threshold, threads)?;
             let sampled = meshers::sample(&*field, &grid, &settings).map_err(|e| e.to_string())?;
             if !json {
                 println!("{scene} at res {res}, threshold {threshold} (errors in cells)");
@@ -537,14 +550,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 },
             out,
         } => {
-            check_threshold(threshold)?;
-            let loaded = load(&input)?;
-            let grid = grid_for(&loaded, res);
-            let (scene, field) = (loaded.name, loaded.field);
-            let settings = Settings {
-                threads,
-                ..Default::default()
-            };
+            let (scene, field, grid, settings) = RunArgs::prepare(&input, res, threshold, threads)?;
             let t0 = Instant::now();
             let tree = KdTree::build(&*field, &grid, &settings).map_err(|e| e.to_string())?;
             let t1 = Instant::now();
