@@ -86,17 +86,19 @@ fn shown(app: &App, chunk: Entity) -> Option<(Vec<[f32; 3]>, Vec<u32>)> {
 /// A from-scratch world of `field` at the thresholds `state` uses.
 fn fresh(field: &dyn Field, state: &VolumeState) -> ChunkWorld {
     let w = state.world();
-    let mut f = ChunkWorld::new(
+    let mut f = ChunkWorld::unbounded(
         Vec3::ZERO,
         w.cell_size,
         w.chunk_res,
-        w.chunks,
         0.01,
         kdcontour::Settings::default(),
     )
     .unwrap();
+    for c in w.coords() {
+        f.add_chunk(c).unwrap();
+    }
     f.build_all(field).unwrap();
-    for c in w.coords().collect::<Vec<_>>() {
+    for c in w.coords() {
         f.set_threshold(c, w.threshold(c));
     }
     f
@@ -107,7 +109,7 @@ fn assert_matches_fresh(app: &App, volume: Entity, field: &dyn Field) {
     let f = fresh(field, state);
     let mut want = IndexedMesh::default();
     let mut total = 0;
-    for c in f.coords().collect::<Vec<_>>() {
+    for c in f.coords() {
         f.snapshot(c).unwrap().extract(&mut want);
         let entity = state.chunk_entity(c).unwrap();
         match shown(app, entity) {
@@ -164,10 +166,11 @@ fn one_edit_rebuilds_exactly_the_chunks_it_meets() {
     let mut app = app(false);
     let v = spawn(&mut app, torus());
     settle(&mut app, v);
-    let before: Vec<(UVec3, usize)> = {
+    let before: Vec<(IVec3, usize)> = {
         let s = app.world().get::<VolumeState>(v).unwrap();
         s.world()
             .coords()
+            .into_iter()
             .map(|c| (c, s.world().tree(c).unwrap() as *const _ as usize))
             .collect()
     };
@@ -187,8 +190,8 @@ fn one_edit_rebuilds_exactly_the_chunks_it_meets() {
     let mut rebuilt = applied[0].rebuilt.clone();
     rebuilt.sort_by_key(|c| (c.z, c.y, c.x));
     // The eight chunks around that corner.
-    let mut want: Vec<UVec3> = (0..8)
-        .map(|i| UVec3::new(i & 1, (i >> 1) & 1, (i >> 2) & 1))
+    let mut want: Vec<IVec3> = (0..8)
+        .map(|i| IVec3::new(i & 1, (i >> 1) & 1, (i >> 2) & 1))
         .collect();
     want.sort_by_key(|c| (c.z, c.y, c.x));
     assert_eq!(rebuilt, want);
@@ -288,6 +291,7 @@ fn moving_the_camera_re_extracts_without_sampling() {
         let s = app.world().get::<VolumeState>(v).unwrap();
         s.world()
             .coords()
+            .into_iter()
             .map(|c| s.world().threshold(c))
             .collect::<Vec<_>>()
     };
@@ -345,4 +349,97 @@ fn a_panicking_field_is_reported_and_the_app_keeps_running() {
     for _ in 0..10 {
         app.update();
     }
+}
+
+/// The chunks a streaming volume should hold with the camera at `cam` (local).
+fn expected_stream(state: &VolumeState, cam: Vec3, view: f32, rows: (i32, i32)) -> Vec<IVec3> {
+    let mut v: Vec<IVec3> = state
+        .world()
+        .chunks_near(cam, view)
+        .into_iter()
+        .filter(|c| (rows.0..=rows.1).contains(&c.y))
+        .collect();
+    v.sort_by_key(|c| (c.z, c.y, c.x));
+    v
+}
+
+#[test]
+fn streaming_terrain_loads_around_the_camera_and_drops_what_it_leaves() {
+    use kdcontour::field::terrain::{Heightfield, HeightfieldParams};
+    let field: Arc<dyn Field> = Arc::new(Heightfield::new(HeightfieldParams {
+        seed: 9,
+        base: 0.0,
+        amplitude: 6.0,
+        frequency: 0.03,
+        octaves: 4,
+    }));
+    let mut app = app(true);
+    let (view, rows) = (20.0, (-1, 0));
+    let v = app
+        .world_mut()
+        .spawn(KdVolume::streaming(field.clone(), 8, 1.0, view).with_rows(rows.0, rows.1))
+        .id();
+    let cam = app
+        .world_mut()
+        .spawn((LodCamera, Transform::from_xyz(3.0, 4.0, -2.0)))
+        .id();
+    settle(&mut app, v);
+    let check = |app: &mut App, at: Vec3| {
+        let state = app.world().get::<VolumeState>(v).unwrap();
+        let want = expected_stream(state, at, view, rows);
+        let have = state.world().coords();
+        // Everything in range is loaded; anything else is within the slack.
+        for c in &want {
+            assert!(have.contains(c), "chunk {c} in range but not loaded");
+        }
+        for c in &have {
+            let (lo, hi) = state.world().chunk_bounds(*c);
+            assert!(
+                at.clamp(lo, hi).distance(at) <= view + 8.0,
+                "chunk {c} kept too far"
+            );
+        }
+        let n = app
+            .world_mut()
+            .query::<&KdChunk>()
+            .iter(app.world())
+            .count();
+        assert_eq!(n, have.len(), "one entity per loaded chunk");
+        assert_matches_fresh(app, v, &*field);
+        have
+    };
+    let first = check(&mut app, Vec3::new(3.0, 4.0, -2.0));
+    assert!(first.iter().any(|c| c.x < 0) && first.iter().any(|c| c.z < 0));
+    // Fly 60 units along +x: the far side loads, the near side is dropped, and the
+    // seams at the old edge are re-cut against what is still loaded.
+    for _ in 0..6 {
+        app.world_mut()
+            .get_mut::<Transform>(cam)
+            .unwrap()
+            .translation
+            .x += 10.0;
+        for _ in 0..3 {
+            app.update();
+        }
+    }
+    settle(&mut app, v);
+    let second = check(&mut app, Vec3::new(63.0, 4.0, -2.0));
+    assert!(second.iter().all(|c| c.x >= 4), "{second:?}");
+    assert!(second.iter().any(|c| c.x >= 10));
+}
+
+#[test]
+fn bad_streaming_settings_are_reported_and_skipped() {
+    let mut app = app(false);
+    let v = app
+        .world_mut()
+        .spawn(KdVolume::streaming(torus(), 8, 1.0, f32::NAN))
+        .id();
+    app.update();
+    app.update();
+    assert!(app.world().get::<VolumeState>(v).is_none());
+    assert!(
+        app.world().get::<KdVolume>(v).is_none(),
+        "the bad volume is removed"
+    );
 }

@@ -458,7 +458,7 @@ fn run(cli: Cli) -> Result<(), String> {
                         .ok_or(format!("--thresholds must be random:SEED, got `{spec}`"))?;
                     let levels = [-1.0, 0.001, 0.01, 0.1, 1.0, 10.0];
                     let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(1);
-                    let coords: Vec<_> = world.coords().collect();
+                    let coords = world.coords();
                     for c in coords {
                         state = state
                             .wrapping_mul(6364136223846793005)
@@ -484,7 +484,11 @@ fn run(cli: Cli) -> Result<(), String> {
             if let Some(p) = &out {
                 mesh.save(p).map_err(|e| e.to_string())?;
             }
-            let ts: Vec<f32> = world.coords().map(|c| world.threshold(c)).collect();
+            let ts: Vec<f32> = world
+                .coords()
+                .into_iter()
+                .map(|c| world.threshold(c))
+                .collect();
             if json {
                 println!(
                     "{}",

@@ -160,8 +160,9 @@ fn edit_latency(c: &mut Criterion) {
         .with_edit(Brush::sphere(centre, 4.0, BrushOp::Subtract))
         .unwrap();
     let (lo_r, r) = field.last_reach().unwrap();
-    let touched: Vec<glam::UVec3> = world
+    let touched: Vec<glam::IVec3> = world
         .coords()
+        .into_iter()
         .filter(|&c| {
             let (lo, hi) = world.chunk_bounds(c);
             lo_r.clamp(lo - glam::Vec3::ONE, hi + glam::Vec3::ONE)
@@ -180,7 +181,7 @@ fn edit_latency(c: &mut Criterion) {
             for &t in &touched {
                 world.build_chunk(t, &field).unwrap();
             }
-            let mut owners: Vec<glam::UVec3> = touched
+            let mut owners: Vec<glam::IVec3> = touched
                 .iter()
                 .flat_map(|&t| world.seam_owners_touching(t))
                 .collect();

@@ -1,9 +1,11 @@
 //! Uniform Dual Marching Cubes straight from the Hermite data: one vertex per cell
 //! patch, one quad per crossing edge. It shares no code with the k-d tree walk and
-//! serves as the oracle for threshold < 0.
+//! serves as the oracle for threshold < 0. Vertices and normals are stored in the
+//! k-d tree's packed form ([`Comp::pack`]), so both give bitwise the same positions.
 
 use crate::cell::{edge_index, CellTables};
 use crate::hermite::Hermite;
+use crate::kdtree::Comp;
 use crate::mesh::IndexedMesh;
 use glam::Vec3;
 
@@ -17,8 +19,10 @@ pub fn uniform_dmc(h: &Hermite) -> IndexedMesh {
         for k in 0..tables.cell(c.config, c.mask).count as usize {
             let p = c.patch_base as usize + k;
             let (v, _) = h.patch_qef[p].solve(lo, lo + Vec3::ONE);
-            mesh.positions.push(h.grid.to_world(v));
-            mesh.normals.push(h.patch_normal[p].normalize_or_zero());
+            let packed = Comp::pack(v, h.patch_normal[p], lo, lo + Vec3::ONE, 0);
+            mesh.positions
+                .push(h.grid.to_world(packed.position(lo, lo + Vec3::ONE)));
+            mesh.normals.push(packed.normal());
         }
     }
     let find = |c: [u32; 3]| {

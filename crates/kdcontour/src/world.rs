@@ -31,9 +31,28 @@ use crate::kdtree::{self, contour, Job, KdTree, Part};
 use crate::mesh::IndexedMesh;
 use crate::Settings;
 use glam::{IVec3, UVec3, Vec3};
+use std::collections::HashMap;
 use std::sync::Arc;
 
-/// A grid of chunks with retained trees and per-chunk thresholds.
+/// Largest `|chunk coordinate| * chunk_res` on any axis: lattice coordinates stay
+/// well inside `i32`.
+const MAX_LATTICE: i64 = 1 << 30;
+
+/// One member chunk: its tree (once built) and its threshold.
+struct Slot {
+    tree: Option<Arc<KdTree>>,
+    threshold: f32,
+}
+
+/// A set of chunks on one lattice, with retained trees and per-chunk thresholds.
+///
+/// A world is either **bounded** ([`ChunkWorld::new`]: every chunk of an
+/// `X x Y x Z` block starting at chunk `(0, 0, 0)`) or **unbounded**
+/// ([`ChunkWorld::unbounded`]: no chunk until [`ChunkWorld::add_chunk`]; chunk
+/// coordinates may be negative, for terrain that streams around a camera). Seams
+/// are contoured only between member chunks that have trees; a seam whose
+/// neighbour is missing is left open, so an unbounded world's mesh is open at the
+/// edge of what is loaded.
 pub struct ChunkWorld {
     /// World position of lattice corner (0, 0, 0).
     pub origin: Vec3,
@@ -41,16 +60,16 @@ pub struct ChunkWorld {
     pub cell_size: f32,
     /// Cells per chunk along each axis.
     pub chunk_res: u32,
-    /// Chunks along x, y, z.
-    pub chunks: UVec3,
     /// Build settings used for every chunk.
     pub settings: Settings,
-    trees: Vec<Option<Arc<KdTree>>>,
-    thresholds: Vec<f32>,
+    bounds: Option<UVec3>,
+    default_threshold: f32,
+    slots: HashMap<IVec3, Slot>,
 }
 
 impl ChunkWorld {
-    /// An empty world (no chunk built yet). Every chunk starts at `threshold`.
+    /// A bounded world of `chunks` (X x Y x Z) chunks, none built yet. Every chunk
+    /// starts at `threshold`.
     pub fn new(
         origin: Vec3,
         cell_size: f32,
@@ -59,12 +78,6 @@ impl ChunkWorld {
         threshold: f32,
         settings: Settings,
     ) -> Result<Self> {
-        if !(1..=4096).contains(&chunk_res) {
-            return Err(Error::InvalidSetting {
-                name: "chunk_res",
-                reason: format!("{chunk_res} cells per chunk; allowed 1 to 4096"),
-            });
-        }
         if chunks.min_element() == 0
             || chunks.x as u64 * chunks.y as u64 * chunks.z as u64 > 1 << 24
         {
@@ -75,67 +88,191 @@ impl ChunkWorld {
                 ),
             });
         }
+        let mut world = Self::unbounded(origin, cell_size, chunk_res, threshold, settings)?;
+        if chunks.max_element() as i64 * chunk_res as i64 > MAX_LATTICE {
+            return Err(Error::InvalidSetting {
+                name: "chunks",
+                reason: format!("{chunks} chunks of {chunk_res} cells exceed 2^30 cells"),
+            });
+        }
+        world.bounds = Some(chunks);
+        for z in 0..chunks.z as i32 {
+            for y in 0..chunks.y as i32 {
+                for x in 0..chunks.x as i32 {
+                    world.slots.insert(
+                        IVec3::new(x, y, z),
+                        Slot {
+                            tree: None,
+                            threshold,
+                        },
+                    );
+                }
+            }
+        }
+        Ok(world)
+    }
+
+    /// An unbounded world with no chunks; add them with [`ChunkWorld::add_chunk`].
+    /// New chunks start at `threshold`.
+    pub fn unbounded(
+        origin: Vec3,
+        cell_size: f32,
+        chunk_res: u32,
+        threshold: f32,
+        settings: Settings,
+    ) -> Result<Self> {
+        if !(1..=4096).contains(&chunk_res) {
+            return Err(Error::InvalidSetting {
+                name: "chunk_res",
+                reason: format!("{chunk_res} cells per chunk; allowed 1 to 4096"),
+            });
+        }
         if !threshold.is_finite() {
             return Err(Error::InvalidSetting {
                 name: "threshold",
                 reason: format!("{threshold} must be finite"),
             });
         }
-        let n = (chunks.x * chunks.y * chunks.z) as usize;
         let world = ChunkWorld {
             origin,
             cell_size,
             chunk_res,
-            chunks,
             settings,
-            trees: (0..n).map(|_| None).collect(),
-            thresholds: vec![threshold; n],
+            bounds: None,
+            default_threshold: threshold,
+            slots: HashMap::new(),
         };
-        world.chunk_grid(UVec3::ZERO).validate()?;
+        world.chunk_grid(IVec3::ZERO).validate()?;
         Ok(world)
     }
 
-    fn index(&self, c: UVec3) -> usize {
-        assert!(
-            c.cmplt(self.chunks).all(),
-            "chunk {c} outside the world's {}",
-            self.chunks
-        );
-        (c.x + self.chunks.x * (c.y + self.chunks.y * c.z)) as usize
+    /// The block size of a bounded world; `None` when unbounded.
+    pub fn bounds(&self) -> Option<UVec3> {
+        self.bounds
     }
 
-    /// Whether `c` is a chunk of this world.
+    fn slot(&self, c: IVec3) -> &Slot {
+        self.slots
+            .get(&c)
+            .unwrap_or_else(|| panic!("chunk {c} is not a member of this world"))
+    }
+
+    fn slot_mut(&mut self, c: IVec3) -> &mut Slot {
+        self.slots
+            .get_mut(&c)
+            .unwrap_or_else(|| panic!("chunk {c} is not a member of this world"))
+    }
+
+    /// Whether `c` is a member chunk of this world.
     pub fn contains(&self, c: IVec3) -> bool {
-        c.cmpge(IVec3::ZERO).all() && c.cmplt(self.chunks.as_ivec3()).all()
+        self.slots.contains_key(&c)
+    }
+
+    /// Number of member chunks.
+    pub fn len(&self) -> usize {
+        self.slots.len()
+    }
+
+    /// Whether the world has no chunk.
+    pub fn is_empty(&self) -> bool {
+        self.slots.is_empty()
+    }
+
+    /// Makes `c` a member (unbuilt, at the default threshold). Returns whether it is
+    /// new. Errors when `c` is outside a bounded world's block, or so far out that
+    /// its lattice coordinates would overflow.
+    pub fn add_chunk(&mut self, c: IVec3) -> Result<bool> {
+        if let Some(b) = self.bounds {
+            if !(c.cmpge(IVec3::ZERO).all() && c.cmplt(b.as_ivec3()).all()) {
+                return Err(Error::InvalidSetting {
+                    name: "chunk",
+                    reason: format!("{c} is outside the bounded world's {b} chunks"),
+                });
+            }
+        }
+        let far = c.abs().max_element() as i64 * self.chunk_res as i64;
+        if far >= MAX_LATTICE {
+            return Err(Error::InvalidSetting {
+                name: "chunk",
+                reason: format!("{c} is more than 2^30 cells from the origin"),
+            });
+        }
+        if self.slots.contains_key(&c) {
+            return Ok(false);
+        }
+        self.slots.insert(
+            c,
+            Slot {
+                tree: None,
+                threshold: self.default_threshold,
+            },
+        );
+        Ok(true)
+    }
+
+    /// Drops member `c` and its tree. Returns whether it was a member. The seams of
+    /// [`ChunkWorld::seam_owners_touching`]`(c)`, computed before the call, need
+    /// re-extracting: they lose the triangles that joined `c`.
+    pub fn remove_chunk(&mut self, c: IVec3) -> bool {
+        self.slots.remove(&c).is_some()
     }
 
     /// The grid chunk `c` samples: its cells plus one cell of halo on every side.
-    pub fn chunk_grid(&self, c: UVec3) -> Grid {
+    pub fn chunk_grid(&self, c: IVec3) -> Grid {
         Grid {
             origin: self.origin,
             cell_size: self.cell_size,
             cells: UVec3::splat(self.chunk_res + 2),
-            offset: (c * self.chunk_res).as_ivec3() - IVec3::ONE,
+            offset: c * self.chunk_res as i32 - IVec3::ONE,
         }
     }
 
     /// The world box of chunk `c` (min, max).
-    pub fn chunk_bounds(&self, c: UVec3) -> (Vec3, Vec3) {
-        let lo = self.origin + (c * self.chunk_res).as_vec3() * self.cell_size;
-        (lo, lo + Vec3::splat(self.chunk_res as f32 * self.cell_size))
+    pub fn chunk_bounds(&self, c: IVec3) -> (Vec3, Vec3) {
+        let side = self.chunk_res as f32 * self.cell_size;
+        let lo = self.origin + c.as_vec3() * side;
+        (lo, lo + Vec3::splat(side))
+    }
+
+    /// The chunk whose box holds world point `p`.
+    pub fn chunk_at(&self, p: Vec3) -> IVec3 {
+        let side = self.chunk_res as f32 * self.cell_size;
+        ((p - self.origin) / side).floor().as_ivec3()
+    }
+
+    /// Every chunk (member or not) whose box comes within `radius` of `center`,
+    /// sorted nearest first.
+    pub fn chunks_near(&self, center: Vec3, radius: f32) -> Vec<IVec3> {
+        let lo = self.chunk_at(center - Vec3::splat(radius));
+        let hi = self.chunk_at(center + Vec3::splat(radius));
+        let mut out = Vec::new();
+        for z in lo.z..=hi.z {
+            for y in lo.y..=hi.y {
+                for x in lo.x..=hi.x {
+                    let c = IVec3::new(x, y, z);
+                    let (a, b) = self.chunk_bounds(c);
+                    let d = center.clamp(a, b).distance(center);
+                    if d <= radius {
+                        out.push((d, c));
+                    }
+                }
+            }
+        }
+        out.sort_by(|a, b| a.0.total_cmp(&b.0).then(key(a.1).cmp(&key(b.1))));
+        out.into_iter().map(|(_, c)| c).collect()
     }
 
     /// Samples `field` for chunk `c` and builds its tree (replacing an old one).
-    pub fn build_chunk(&mut self, c: UVec3, field: &dyn Field) -> Result<()> {
+    pub fn build_chunk(&mut self, c: IVec3, field: &dyn Field) -> Result<()> {
         let tree = self.chunk_build(c).run(field)?;
         self.insert_tree(c, tree);
         Ok(())
     }
 
-    /// Builds every chunk (in parallel over chunks).
+    /// Builds every member chunk (in parallel over chunks).
     pub fn build_all(&mut self, field: &dyn Field) -> Result<()> {
         use rayon::prelude::*;
-        let coords: Vec<UVec3> = self.coords().collect();
+        let coords = self.coords();
         let grids: Vec<Grid> = coords.iter().map(|&c| self.chunk_grid(c)).collect();
         let (res, settings) = (self.chunk_res, self.settings.clone());
         let inner = Settings {
@@ -154,21 +291,20 @@ impl ChunkWorld {
         Ok(())
     }
 
-    /// Every chunk coordinate, x fastest.
-    pub fn coords(&self) -> impl Iterator<Item = UVec3> + '_ {
-        let n = self.chunks;
-        (0..n.z).flat_map(move |z| {
-            (0..n.y).flat_map(move |y| (0..n.x).map(move |x| UVec3::new(x, y, z)))
-        })
+    /// Every member chunk, sorted z, then y, then x.
+    pub fn coords(&self) -> Vec<IVec3> {
+        let mut v: Vec<IVec3> = self.slots.keys().copied().collect();
+        v.sort_by_key(|&c| key(c));
+        v
     }
 
     /// The tree of chunk `c`, if built.
-    pub fn tree(&self, c: UVec3) -> Option<&KdTree> {
-        self.trees[self.index(c)].as_deref()
+    pub fn tree(&self, c: IVec3) -> Option<&KdTree> {
+        self.slot(c).tree.as_deref()
     }
 
     /// Everything needed to build chunk `c` elsewhere (a task, another thread).
-    pub fn chunk_build(&self, c: UVec3) -> ChunkBuild {
+    pub fn chunk_build(&self, c: IVec3) -> ChunkBuild {
         ChunkBuild {
             grid: self.chunk_grid(c),
             res: self.chunk_res,
@@ -176,36 +312,36 @@ impl ChunkWorld {
         }
     }
 
-    /// Installs a tree built by [`ChunkBuild::run`] for chunk `c`.
-    pub fn insert_tree(&mut self, c: UVec3, tree: KdTree) {
-        let i = self.index(c);
-        self.trees[i] = Some(Arc::new(tree));
+    /// Installs a tree built by [`ChunkBuild::run`] for member chunk `c`.
+    pub fn insert_tree(&mut self, c: IVec3, tree: KdTree) {
+        self.slot_mut(c).tree = Some(Arc::new(tree));
     }
 
-    /// Forgets chunk `c`'s tree (its mesh and the seams it owns become empty).
-    pub fn remove_tree(&mut self, c: UVec3) {
-        let i = self.index(c);
-        self.trees[i] = None;
+    /// Forgets member chunk `c`'s tree (its mesh and the seams it owns become
+    /// empty); it stays a member.
+    pub fn remove_tree(&mut self, c: IVec3) {
+        self.slot_mut(c).tree = None;
     }
 
     /// What extracting chunk `c` (interior and owned seams) needs, detached from the
     /// world so a task can run it: the trees of `c` and its upper neighbours, and
     /// their thresholds. `None` when `c` has no tree.
-    pub fn snapshot(&self, c: UVec3) -> Option<ChunkSnapshot> {
-        let (parts, jobs) = self.owned_jobs(c);
-        if parts.is_empty() {
+    pub fn snapshot(&self, c: IVec3) -> Option<ChunkSnapshot> {
+        let (coords, jobs) = self.owned_jobs(c);
+        if coords.is_empty() {
             return None;
         }
-        // owned_jobs lists chunk c first; map parts back to their Arcs.
-        let mut owned = Vec::new();
-        for p in &parts {
-            let cc = ((p.offset + IVec3::ONE) / self.chunk_res as i32).as_uvec3();
-            owned.push((
-                self.trees[self.index(cc)].clone().expect("built"),
-                p.offset,
-                p.threshold,
-            ));
-        }
+        let owned = coords
+            .iter()
+            .map(|&cc| {
+                let slot = self.slot(cc);
+                (
+                    slot.tree.clone().expect("owned_jobs lists built chunks"),
+                    self.part_offset(cc),
+                    slot.threshold,
+                )
+            })
+            .collect();
         let mut interior = vec![Job::Cell(0)];
         interior.extend(jobs);
         Some(ChunkSnapshot {
@@ -214,21 +350,20 @@ impl ChunkWorld {
         })
     }
 
-    /// The threshold chunk `c` is cut at.
-    pub fn threshold(&self, c: UVec3) -> f32 {
-        self.thresholds[self.index(c)]
+    /// The threshold member chunk `c` is cut at.
+    pub fn threshold(&self, c: IVec3) -> f32 {
+        self.slot(c).threshold
     }
 
-    /// Sets chunk `c`'s threshold. Re-extract `c` and the seams of
+    /// Sets member chunk `c`'s threshold. Re-extract `c` and the seams of
     /// [`ChunkWorld::seam_owners_touching`]`(c)` to show it.
-    pub fn set_threshold(&mut self, c: UVec3, threshold: f32) {
-        let i = self.index(c);
-        self.thresholds[i] = threshold;
+    pub fn set_threshold(&mut self, c: IVec3, threshold: f32) {
+        self.slot_mut(c).threshold = threshold;
     }
 
-    /// The chunks whose owned seams touch chunk `c`: `c` and its lower neighbours
-    /// across one or two axes (up to seven chunks).
-    pub fn seam_owners_touching(&self, c: UVec3) -> Vec<UVec3> {
+    /// The member chunks whose owned seams touch chunk `c`: `c` and its lower
+    /// neighbours across one or two axes (up to seven chunks).
+    pub fn seam_owners_touching(&self, c: IVec3) -> Vec<IVec3> {
         let mut out = Vec::new();
         for mask in 0..8u32 {
             if mask.count_ones() == 3 {
@@ -239,41 +374,42 @@ impl ChunkWorld {
                 (mask >> 1 & 1) as i32,
                 (mask >> 2 & 1) as i32,
             );
-            let o = c.as_ivec3() - d;
+            let o = c - d;
             if self.contains(o) {
-                out.push(o.as_uvec3());
+                out.push(o);
             }
         }
         out
     }
 
-    fn part(&self, c: UVec3) -> Option<Part<'_>> {
-        let i = self.index(c);
-        self.trees[i].as_deref().map(|tree| Part {
+    fn part_offset(&self, c: IVec3) -> IVec3 {
+        c * self.chunk_res as i32 - IVec3::ONE
+    }
+
+    fn part(&self, c: IVec3) -> Option<Part<'_>> {
+        let slot = self.slots.get(&c)?;
+        slot.tree.as_deref().map(|tree| Part {
             tree,
-            offset: (c * self.chunk_res).as_ivec3() - IVec3::ONE,
-            threshold: self.thresholds[i],
+            offset: self.part_offset(c),
+            threshold: slot.threshold,
         })
     }
 
-    /// The seam jobs chunk `c` owns, with the parts they need (part 0 is `c`).
-    fn owned_jobs(&self, c: UVec3) -> (Vec<Part<'_>>, Vec<Job>) {
+    /// The seam jobs chunk `c` owns, with the chunks they need (chunk 0 is `c`;
+    /// every listed chunk is built).
+    fn owned_jobs(&self, c: IVec3) -> (Vec<IVec3>, Vec<Job>) {
         let mut jobs = Vec::new();
-        let Some(me) = self.part(c) else {
+        if self.part(c).is_none() {
             return (Vec::new(), jobs);
-        };
-        let mut parts = vec![me];
+        }
+        let mut coords = vec![c];
         let mut find = |o: IVec3| -> Option<usize> {
-            if !self.contains(o) {
-                return None;
-            }
-            let p = self.part(o.as_uvec3())?;
-            parts.push(p);
-            Some(parts.len() - 1)
+            self.part(o)?;
+            coords.push(o);
+            Some(coords.len() - 1)
         };
-        let ci = c.as_ivec3();
         for a in 0..3 {
-            if let Some(high) = find(ci + IVec3::AXES[a]) {
+            if let Some(high) = find(c + IVec3::AXES[a]) {
                 jobs.push(Job::Face {
                     low: 0,
                     high,
@@ -283,9 +419,9 @@ impl ChunkWorld {
         }
         for a in 0..3 {
             let (u, v) = (IVec3::AXES[(a + 1) % 3], IVec3::AXES[(a + 2) % 3]);
-            let q1 = find(ci + u);
-            let q2 = find(ci + u + v);
-            let q3 = find(ci + v);
+            let q1 = find(c + u);
+            let q2 = find(c + u + v);
+            let q3 = find(c + v);
             if let (Some(q1), Some(q2), Some(q3)) = (q1, q2, q3) {
                 jobs.push(Job::Edge {
                     parts: [0, q1, q2, q3],
@@ -293,11 +429,11 @@ impl ChunkWorld {
                 });
             }
         }
-        (parts, jobs)
+        (coords, jobs)
     }
 
     /// Contours the inside of chunk `c` at its threshold into `out` (cleared).
-    pub fn extract_interior(&self, c: UVec3, out: &mut IndexedMesh) {
+    pub fn extract_interior(&self, c: IVec3, out: &mut IndexedMesh) {
         out.reset();
         if let Some(p) = self.part(c) {
             contour(&[p], &[Job::Cell(0)], out);
@@ -306,38 +442,31 @@ impl ChunkWorld {
 
     /// Contours the seams chunk `c` owns into `out` (cleared), each neighbour at its
     /// own threshold.
-    pub fn extract_seams(&self, c: UVec3, out: &mut IndexedMesh) {
+    pub fn extract_seams(&self, c: IVec3, out: &mut IndexedMesh) {
         out.reset();
-        let (parts, jobs) = self.owned_jobs(c);
+        let (coords, jobs) = self.owned_jobs(c);
+        let parts: Vec<Part> = coords.iter().filter_map(|&cc| self.part(cc)).collect();
         contour(&parts, &jobs, out);
     }
 
-    /// The whole world as one welded mesh: every interior and every seam, vertices
-    /// shared, so it can be checked for watertightness as a whole.
+    /// The whole world as one welded mesh: every built chunk's interior and every
+    /// seam between built chunks, vertices shared, so it can be checked for
+    /// watertightness as a whole.
     pub fn extract_all(&self) -> IndexedMesh {
-        let coords: Vec<UVec3> = self.coords().collect();
-        let index_of: std::collections::HashMap<UVec3, usize> =
-            coords.iter().enumerate().map(|(i, &c)| (c, i)).collect();
-        let parts: Vec<Part> = coords
-            .iter()
-            .map(|&c| {
-                self.part(c)
-                    .unwrap_or_else(|| panic!("chunk {c} is not built"))
-            })
+        let coords: Vec<IVec3> = self
+            .coords()
+            .into_iter()
+            .filter(|&c| self.part(c).is_some())
             .collect();
+        let index_of: HashMap<IVec3, usize> =
+            coords.iter().enumerate().map(|(i, &c)| (c, i)).collect();
+        let parts: Vec<Part> = coords.iter().filter_map(|&c| self.part(c)).collect();
         let mut jobs = Vec::new();
         for (i, &c) in coords.iter().enumerate() {
             jobs.push(Job::Cell(i));
-            let ci = c.as_ivec3();
-            let at = |o: IVec3| {
-                if self.contains(o) {
-                    index_of.get(&o.as_uvec3()).copied()
-                } else {
-                    None
-                }
-            };
+            let at = |o: IVec3| index_of.get(&o).copied();
             for a in 0..3 {
-                if let Some(high) = at(ci + IVec3::AXES[a]) {
+                if let Some(high) = at(c + IVec3::AXES[a]) {
                     jobs.push(Job::Face {
                         low: i,
                         high,
@@ -345,7 +474,7 @@ impl ChunkWorld {
                     });
                 }
                 let (u, v) = (IVec3::AXES[(a + 1) % 3], IVec3::AXES[(a + 2) % 3]);
-                if let (Some(q1), Some(q2), Some(q3)) = (at(ci + u), at(ci + u + v), at(ci + v)) {
+                if let (Some(q1), Some(q2), Some(q3)) = (at(c + u), at(c + u + v), at(c + v)) {
                     jobs.push(Job::Edge {
                         parts: [i, q1, q2, q3],
                         axis: a,
@@ -360,12 +489,17 @@ impl ChunkWorld {
 
     /// Bytes held by all retained trees.
     pub fn retained_bytes(&self) -> usize {
-        self.trees
-            .iter()
-            .flatten()
+        self.slots
+            .values()
+            .filter_map(|s| s.tree.as_ref())
             .map(|t| t.retained_bytes())
             .sum()
     }
+}
+
+/// Sort key: z, then y, then x.
+fn key(c: IVec3) -> (i32, i32, i32) {
+    (c.z, c.y, c.x)
 }
 
 /// A chunk build detached from its world (see [`ChunkWorld::chunk_build`]).
@@ -484,8 +618,8 @@ impl Lod {
 impl ChunkWorld {
     /// Sets every chunk's threshold from its distance to `camera` (the nearest point
     /// of its box). Returns the chunks whose threshold changed.
-    pub fn apply_lod(&mut self, camera: Vec3, lod: &Lod) -> Vec<UVec3> {
-        let coords: Vec<UVec3> = self.coords().collect();
+    pub fn apply_lod(&mut self, camera: Vec3, lod: &Lod) -> Vec<IVec3> {
+        let coords = self.coords();
         let mut changed = Vec::new();
         for c in coords {
             let (lo, hi) = self.chunk_bounds(c);

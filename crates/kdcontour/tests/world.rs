@@ -2,7 +2,7 @@
 //! manifold, with the topology of one grid over the same lattice; re-thresholding
 //! and rebuilding edited chunks keep it so.
 
-use glam::{UVec3, Vec3};
+use glam::{IVec3, UVec3, Vec3};
 use kdcontour::{
     scenes, validate, ChunkWorld, CsgNode, Field, Grid, IndexedMesh, KdTree, Settings,
 };
@@ -41,7 +41,7 @@ fn single_grid_euler(field: &dyn Field, cells: u32) -> i64 {
 }
 
 fn randomise(w: &mut ChunkWorld, rng: &mut Lcg) {
-    let coords: Vec<UVec3> = w.coords().collect();
+    let coords: Vec<IVec3> = w.coords();
     for c in coords {
         w.set_threshold(c, LEVELS[rng.next() % LEVELS.len()]);
     }
@@ -110,7 +110,7 @@ fn edits_rebuild_only_the_touched_chunks_and_stay_closed() {
         let field = CsgNode::from_json(&json).unwrap().compile().unwrap();
         // Rebuild the chunks whose box, grown by one cell, meets the brush.
         let mut rebuilt = Vec::new();
-        let coords: Vec<UVec3> = w.coords().collect();
+        let coords: Vec<IVec3> = w.coords();
         for c in coords {
             let (lo, hi) = w.chunk_bounds(c);
             let grow = w.cell_size;
@@ -128,7 +128,7 @@ fn edits_rebuild_only_the_touched_chunks_and_stay_closed() {
         check(&w, euler, &format!("after edit {i}"));
         // A from-scratch world of the edited field gives the same mesh.
         let mut fresh = world(&field, 3, 12);
-        for c in w.coords().collect::<Vec<_>>() {
+        for c in w.coords() {
             fresh.set_threshold(c, w.threshold(c));
         }
         assert_eq!(
@@ -161,8 +161,8 @@ fn threshold_changes_never_resample_and_threads_agree() {
     };
     let many = world(&*scene.field, 3, 12);
     assert_eq!(one.extract_all(), many.extract_all());
-    assert!(one.seam_owners_touching(UVec3::splat(1)).len() == 7);
-    assert_eq!(one.seam_owners_touching(UVec3::ZERO), vec![UVec3::ZERO]);
+    assert!(one.seam_owners_touching(IVec3::splat(1)).len() == 7);
+    assert_eq!(one.seam_owners_touching(IVec3::ZERO), vec![IVec3::ZERO]);
 }
 
 #[test]
@@ -246,4 +246,157 @@ fn snapshots_match_the_world_and_edit_logs_replay() {
             op: BrushOp::Add
         })
         .is_err());
+}
+
+/// An unbounded world holding the chunks in `set`, built.
+fn unbounded(field: &dyn Field, set: &[IVec3], res: u32) -> ChunkWorld {
+    let cell = 2.0 / (3 * res) as f32;
+    let mut w = ChunkWorld::unbounded(
+        Vec3::splat(-1.0 / 3.0),
+        cell,
+        res,
+        0.01,
+        Settings::default(),
+    )
+    .unwrap();
+    for &c in set {
+        assert!(w.add_chunk(c).unwrap());
+    }
+    w.build_all(field).unwrap();
+    w
+}
+
+fn block(lo: IVec3, hi: IVec3) -> Vec<IVec3> {
+    let mut v = Vec::new();
+    for z in lo.z..=hi.z {
+        for y in lo.y..=hi.y {
+            for x in lo.x..=hi.x {
+                v.push(IVec3::new(x, y, z));
+            }
+        }
+    }
+    v
+}
+
+#[test]
+fn unbounded_worlds_take_negative_chunks_and_stay_closed() {
+    // Chunks -1..=1 around the origin cover the same cube as the bounded tests.
+    let mut rng = Lcg(5);
+    for name in ["torus", "caves"] {
+        let scene = scenes::scene(name).unwrap();
+        let euler = single_grid_euler(&*scene.field, 36);
+        let mut w = unbounded(&*scene.field, &block(-IVec3::ONE, IVec3::ONE), 12);
+        assert_eq!(w.len(), 27);
+        assert_eq!(w.bounds(), None);
+        for round in 0..3 {
+            randomise(&mut w, &mut rng);
+            check(&w, euler, &format!("unbounded {name} round {round}"));
+        }
+    }
+}
+
+#[test]
+fn streaming_chunks_in_and_out_equals_a_fresh_world() {
+    let scene = scenes::scene("terrain").unwrap();
+    let field = &*scene.field;
+    // Start with one block, then slide it one chunk along +x the way a camera
+    // would: drop the trailing layer, add the leading one, build only those.
+    let mut w = unbounded(
+        field,
+        &block(IVec3::new(-1, -1, -1), IVec3::new(1, 1, 1)),
+        8,
+    );
+    let mut rng = Lcg(3);
+    randomise(&mut w, &mut rng);
+    for c in block(IVec3::new(-1, -1, -1), IVec3::new(-1, 1, 1)) {
+        assert!(w.remove_chunk(c));
+    }
+    for c in block(IVec3::new(2, -1, -1), IVec3::new(2, 1, 1)) {
+        assert!(w.add_chunk(c).unwrap());
+        w.build_chunk(c, field).unwrap();
+    }
+    assert!(!w.remove_chunk(IVec3::new(-5, 0, 0)), "not a member");
+    assert!(
+        !w.add_chunk(IVec3::new(2, 0, 0)).unwrap(),
+        "already a member"
+    );
+    let fresh = {
+        let mut f = unbounded(field, &block(IVec3::new(0, -1, -1), IVec3::new(2, 1, 1)), 8);
+        for c in w.coords() {
+            f.set_threshold(c, w.threshold(c));
+        }
+        f
+    };
+    assert_eq!(w.coords(), fresh.coords());
+    let (a, b) = (w.extract_all(), fresh.extract_all());
+    assert_eq!(a, b, "streamed world differs from a fresh one");
+    // Open where the loaded block ends, manifold and oriented everywhere.
+    let r = validate(&a, None);
+    assert!(
+        r.triangles > 0
+            && r.boundary_edges > 0
+            && r.nonmanifold_edges == 0
+            && r.misoriented_edges == 0,
+        "{r:?}"
+    );
+    // Chunk lookups.
+    assert_eq!(w.chunk_at(Vec3::splat(-1.0 / 3.0)), IVec3::ZERO);
+    assert_eq!(w.chunk_at(Vec3::splat(-0.34)), IVec3::splat(-1));
+    let near = w.chunks_near(Vec3::ZERO, 0.1);
+    assert_eq!(near[0], IVec3::ZERO, "nearest first");
+    assert!(near.iter().all(|&c| {
+        let (lo, hi) = w.chunk_bounds(c);
+        Vec3::ZERO.clamp(lo, hi).length() <= 0.1
+    }));
+}
+
+#[test]
+fn chunks_outside_the_world_are_errors() {
+    let s = Settings::default();
+    let mut b = ChunkWorld::new(Vec3::ZERO, 0.1, 8, UVec3::splat(2), 0.01, s.clone()).unwrap();
+    let e = b.add_chunk(IVec3::new(2, 0, 0)).unwrap_err().to_string();
+    assert!(e.contains("outside the bounded world"), "{e}");
+    assert!(b.add_chunk(IVec3::new(-1, 0, 0)).is_err());
+    let mut u = ChunkWorld::unbounded(Vec3::ZERO, 0.1, 32, 0.01, s.clone()).unwrap();
+    let e = u
+        .add_chunk(IVec3::new(0, 1 << 26, 0))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("2^30"), "{e}");
+    assert!(u.add_chunk(IVec3::new(-(1 << 20), 0, 0)).unwrap());
+    assert!(ChunkWorld::unbounded(Vec3::ZERO, 0.1, 0, 0.01, s.clone()).is_err());
+    assert!(ChunkWorld::unbounded(Vec3::ZERO, 0.1, 8, f32::INFINITY, s).is_err());
+}
+
+#[test]
+fn a_terrain_chunk_retains_at_most_256_kib() {
+    // The memory target: a 32^3 chunk of the noise height field (the bench's
+    // terrain chunk), nodes + packed components + sign bits.
+    use kdcontour::field::terrain::{Heightfield, HeightfieldParams};
+    let field = Heightfield::new(HeightfieldParams {
+        seed: 3,
+        base: 0.0,
+        amplitude: 10.0,
+        frequency: 0.015,
+        octaves: 5,
+    });
+    let mut w = ChunkWorld::new(
+        Vec3::new(0.0, -16.0, 0.0),
+        1.0,
+        32,
+        UVec3::ONE,
+        0.01,
+        Settings::default(),
+    )
+    .unwrap();
+    w.build_all(&field).unwrap();
+    let tree = w.tree(IVec3::ZERO).unwrap();
+    let bytes = w.retained_bytes();
+    println!(
+        "terrain chunk: {} nodes, {} components, {bytes} bytes retained",
+        tree.nodes.len(),
+        tree.comps.len()
+    );
+    assert!(tree.nodes.len() > 2000, "the chunk holds surface");
+    assert!(bytes <= 256 * 1024, "{bytes} bytes");
 }

@@ -26,9 +26,17 @@ thread_local! {
 /// See [`PARALLEL_DEPTH`]; below this the join overhead exceeds the work.
 const PARALLEL_CELLS: usize = 1024;
 
+/// A component while building: full precision, normal not yet normalised.
+#[derive(Clone, Copy)]
+struct BuildComp {
+    vertex: Vec3,
+    normal: Vec3,
+    parent: u8,
+}
+
 struct Arena {
     nodes: Vec<KdNode>,
-    comps: Vec<Comp>,
+    comps: Vec<BuildComp>,
 }
 
 impl Arena {
@@ -162,18 +170,23 @@ pub fn build_in(
         )
         .0
     };
-    let comps = arena
-        .comps
-        .into_iter()
-        .map(|mut c| {
-            c.normal = c.normal.normalize_or_zero();
-            c
-        })
-        .collect();
+    // Pack every component against the box of the node that owns it.
     let mut nodes = arena.nodes;
     nodes.shrink_to_fit();
-    let mut comps: Vec<Comp> = comps;
-    comps.shrink_to_fit();
+    let mut comps: Vec<Comp> = Vec::with_capacity(arena.comps.len());
+    comps.extend(arena.comps.iter().map(|c| Comp {
+        vertex: [0; 3],
+        normal: [0; 3],
+        parent: c.parent,
+    }));
+    for node in &nodes {
+        let lo = Vec3::new(node.min[0] as f32, node.min[1] as f32, node.min[2] as f32);
+        let hi = Vec3::new(node.max[0] as f32, node.max[1] as f32, node.max[2] as f32);
+        for i in node.comp_start..node.comp_start + node.comp_count as u32 {
+            let c = arena.comps[i as usize];
+            comps[i as usize] = Comp::pack(c.vertex, c.normal, lo, hi, c.parent);
+        }
+    }
     KdTree {
         grid: h.grid,
         nodes,
@@ -455,7 +468,7 @@ fn cell_leaf(
         let q = ctx.h.patch_qef[p];
         let (vertex, e) = q.solve(lo, hi);
         error = error.max(e);
-        arena.comps.push(Comp {
+        arena.comps.push(BuildComp {
             vertex,
             normal: ctx.h.patch_normal[p],
             parent: 0,
@@ -573,7 +586,7 @@ fn cluster(
         } else {
             (cell[node.axis as usize] >= node.split as u32) as usize
         };
-        offset_of(k) + super::comp_in(nodes, &arena.comps, kids[k], cell, edge)
+        offset_of(k) + super::comp_in(nodes, |i| arena.comps[i].parent, kids[k], cell, edge)
     };
 
     if kids.len() == 2 {
@@ -692,7 +705,7 @@ fn cluster(
     for (c, q) in qefs[..ncomp as usize].iter().enumerate() {
         let (vertex, e) = q.solve(lo, hi);
         error = error.max(e as f32);
-        arena.comps.push(Comp {
+        arena.comps.push(BuildComp {
             vertex,
             normal: normals[c],
             parent: 0,

@@ -399,9 +399,12 @@ impl Walker<'_, '_> {
         let slot = &mut self.vertex_of[leaf.t as usize][ci];
         if *slot == u32::MAX {
             let c = tree.comps[ci];
+            let (lo, hi) = tree.node_box(leaf.n);
             *slot = self.mesh.positions.len() as u32;
-            self.mesh.positions.push(tree.grid.to_world(c.vertex));
-            self.mesh.normals.push(c.normal);
+            self.mesh
+                .positions
+                .push(tree.grid.to_world(c.position(lo, hi)));
+            self.mesh.normals.push(c.normal());
         }
         *slot
     }

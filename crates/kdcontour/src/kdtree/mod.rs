@@ -46,15 +46,56 @@ pub struct KdNode {
     pub error: f32,
 }
 
-/// A surface component of a clusterable node: one dual vertex.
+/// A surface component of a clusterable node: one dual vertex, packed in 14 bytes.
+///
+/// The vertex (the QEF minimiser, always inside its node's box) is stored as 16-bit
+/// fractions of that box: 1/65535 of a cell for cell leaves, and never coarser than
+/// 1/65535 of the node's extent. The unit normal is stored as 16-bit snorm.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Comp {
-    /// Vertex position (grid units), the QEF minimiser kept inside the node's box.
-    pub vertex: Vec3,
-    /// Unit normal: the normalised sum of its crossings' normals.
-    pub normal: Vec3,
+    /// Vertex position as fractions (0..=65535) of the node's box along x, y, z.
+    pub vertex: [u16; 3],
+    /// Unit normal in snorm16: the normalised sum of its crossings' normals.
+    pub normal: [i16; 3],
     /// Index of the component of the parent node this one merges into.
     pub parent: u8,
+}
+
+impl Comp {
+    /// Packs a vertex (grid units, inside `[lo, hi]`) and a normal (any length).
+    pub fn pack(vertex: Vec3, normal: Vec3, lo: Vec3, hi: Vec3, parent: u8) -> Comp {
+        let t = ((vertex - lo) / (hi - lo).max(Vec3::splat(f32::MIN_POSITIVE)))
+            .clamp(Vec3::ZERO, Vec3::ONE)
+            * 65535.0;
+        let n = normal.normalize_or_zero() * 32767.0;
+        Comp {
+            vertex: t.round().to_array().map(|x| x as u16),
+            normal: n.round().to_array().map(|x| x as i16),
+            parent,
+        }
+    }
+
+    /// The vertex (grid units) in the box `[lo, hi]` of the node that owns it.
+    #[inline]
+    pub fn position(&self, lo: Vec3, hi: Vec3) -> Vec3 {
+        let t = Vec3::new(
+            self.vertex[0] as f32,
+            self.vertex[1] as f32,
+            self.vertex[2] as f32,
+        ) / 65535.0;
+        lo + (hi - lo) * t
+    }
+
+    /// The unit normal (zero when its crossings' normals cancelled).
+    #[inline]
+    pub fn normal(&self) -> Vec3 {
+        Vec3::new(
+            self.normal[0] as f32,
+            self.normal[1] as f32,
+            self.normal[2] as f32,
+        )
+        .normalize_or_zero()
+    }
 }
 
 /// Times and sizes of one build.
@@ -112,13 +153,35 @@ impl KdTree {
     /// Component (index within node `x`) of the patch of fine cell `cell` that edge
     /// `edge` of the cell belongs to. `x` must be clusterable and contain `cell`.
     pub fn comp_of(&self, x: u32, cell: [u32; 3], edge: usize) -> u8 {
-        comp_in(&self.nodes, &self.comps, x, cell, edge)
+        comp_in(&self.nodes, |i| self.comps[i].parent, x, cell, edge)
+    }
+
+    /// The box `[lo, hi]` (grid units) of node `n`.
+    #[inline]
+    pub fn node_box(&self, n: u32) -> (Vec3, Vec3) {
+        let node = &self.nodes[n as usize];
+        (
+            Vec3::new(node.min[0] as f32, node.min[1] as f32, node.min[2] as f32),
+            Vec3::new(node.max[0] as f32, node.max[1] as f32, node.max[2] as f32),
+        )
+    }
+
+    /// Vertex (grid units) of component `local` of node `n`.
+    pub fn comp_position(&self, n: u32, local: u8) -> Vec3 {
+        let (lo, hi) = self.node_box(n);
+        self.comps[(self.nodes[n as usize].comp_start + local as u32) as usize].position(lo, hi)
     }
 }
 
 /// Walks from clusterable node `x` down to `cell`, then back up through the
 /// components' `parent` links.
-pub(crate) fn comp_in(nodes: &[KdNode], comps: &[Comp], x: u32, cell: [u32; 3], edge: usize) -> u8 {
+pub(crate) fn comp_in(
+    nodes: &[KdNode],
+    parent_of: impl Fn(usize) -> u8,
+    x: u32,
+    cell: [u32; 3],
+    edge: usize,
+) -> u8 {
     // Most clustered nodes have one component: nothing to look up.
     if nodes[x as usize].comp_count == 1 {
         return 0;
@@ -151,7 +214,7 @@ pub(crate) fn comp_in(nodes: &[KdNode], comps: &[Comp], x: u32, cell: [u32; 3], 
         // Walk up from the cell to just below x.
         let mut child = n;
         while let Some(parent) = path.pop() {
-            local = comps[(nodes[child as usize].comp_start + local as u32) as usize].parent;
+            local = parent_of((nodes[child as usize].comp_start + local as u32) as usize);
             child = parent;
         }
         local

@@ -1,0 +1,260 @@
+//! One field, three meshers, side by side, from the same samples: Marching Cubes
+//! (left), the octree baseline (middle) and the discrete k-d tree (right), drawn
+//! as wireframes over the shaded surface so the triangles can be counted by eye as
+//! well as in the panel. The threshold slider re-cuts both retained trees without
+//! sampling the field again; the scene box picks any built-in scene.
+//!
+//! Keys: WASD / E / Q and arrows or middle mouse to fly. F1 hides the panel.
+//!
+//! ```text
+//! cargo run --release --example compare -- --scene disk_pole --res 64
+//! ```
+
+mod common;
+
+use bevy::asset::RenderAssetUsages;
+use bevy::mesh::{Indices, PrimitiveTopology};
+use bevy::pbr::wireframe::WireframeConfig;
+use bevy::prelude::*;
+use bevy_kdcontour::kdcontour::kdtree::{self, Partition};
+use bevy_kdcontour::kdcontour::{mc, meshers, scenes, Grid, IndexedMesh, KdTree, Settings};
+use bevy_kdcontour::panel::bevy_egui::{egui, EguiContexts, EguiPrimaryContextPass};
+use bevy_kdcontour::panel::{KdContourPanel, KdContourPanelPlugin};
+use bevy_kdcontour::prelude::*;
+use clap::Parser;
+use common::{ShotArgs, ShotPlugin};
+
+/// Marching Cubes, octree and k-d tree on the same grid.
+#[derive(Parser, Debug)]
+struct Args {
+    /// Built-in scene (see `kdcontour scenes`).
+    #[arg(long, default_value = "disk_pole")]
+    scene: String,
+    /// Cells per side of the cube [-1, 1]^3.
+    #[arg(long, default_value_t = 64)]
+    res: u32,
+    /// Error threshold (squared cells) of the adaptive meshers.
+    #[arg(long, default_value_t = 0.01)]
+    threshold: f32,
+    #[command(flatten)]
+    shot: ShotArgs,
+}
+
+/// The three meshes of the current scene.
+#[derive(Resource)]
+struct Compare {
+    scene: String,
+    res: u32,
+    threshold: f32,
+    /// (name, retained tree if adaptive, triangles, mesh asset)
+    rows: Vec<(&'static str, Option<KdTree>, usize, Handle<Mesh>)>,
+    sample_ms: f64,
+    error: Option<String>,
+}
+
+fn main() {
+    let args = Args::parse();
+    if scenes::scene(&args.scene).is_err() {
+        common::fail(format!(
+            "unknown scene {:?}; the built-in scenes are: {}",
+            args.scene,
+            scenes::SCENES.join(", ")
+        ));
+    }
+    if !(4..=256).contains(&args.res) {
+        common::fail(format!("--res must be 4 to 256, got {}", args.res));
+    }
+    if !args.threshold.is_finite() {
+        common::fail("--threshold must be a number");
+    }
+    App::new()
+        .insert_resource(ClearColor(Color::srgb(0.16, 0.17, 0.2)))
+        .add_plugins((
+            common::default_plugins("bevy_kdcontour: compare", &args.shot),
+            KdContourPlugin::default(),
+            KdContourPanelPlugin {
+                panel: KdContourPanel {
+                    open: false,
+                    ..default()
+                },
+            },
+            ShotPlugin(args.shot.clone()),
+        ))
+        .insert_resource(Compare {
+            scene: args.scene.clone(),
+            res: args.res,
+            threshold: args.threshold,
+            rows: Vec::new(),
+            sample_ms: 0.0,
+            error: None,
+        })
+        .add_systems(Startup, setup)
+        .add_systems(Update, common::fly_camera)
+        .add_systems(EguiPrimaryContextPass, panel)
+        .run();
+}
+
+fn to_mesh(m: &IndexedMesh) -> Mesh {
+    Mesh::new(
+        PrimitiveTopology::TriangleList,
+        RenderAssetUsages::default(),
+    )
+    .with_inserted_attribute(
+        Mesh::ATTRIBUTE_POSITION,
+        m.positions.iter().map(|p| p.to_array()).collect::<Vec<_>>(),
+    )
+    .with_inserted_attribute(
+        Mesh::ATTRIBUTE_NORMAL,
+        m.normals.iter().map(|n| n.to_array()).collect::<Vec<_>>(),
+    )
+    .with_inserted_indices(Indices::U32(m.indices.clone()))
+}
+
+fn setup(
+    mut commands: Commands,
+    mut cmp: ResMut<Compare>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+    mut wireframe: ResMut<WireframeConfig>,
+) {
+    wireframe.global = true;
+    wireframe.default_color = Color::srgb(0.05, 0.05, 0.08);
+    let colours = [
+        Color::srgb(0.85, 0.55, 0.4),
+        Color::srgb(0.55, 0.75, 0.45),
+        Color::srgb(0.45, 0.65, 0.9),
+    ];
+    let names = ["Marching Cubes", "octree", "k-d tree"];
+    for (i, (name, colour)) in names.into_iter().zip(colours).enumerate() {
+        let handle = meshes.add(Mesh::new(
+            PrimitiveTopology::TriangleList,
+            RenderAssetUsages::default(),
+        ));
+        commands.spawn((
+            Mesh3d(handle.clone()),
+            MeshMaterial3d(materials.add(StandardMaterial {
+                base_color: colour,
+                perceptual_roughness: 0.7,
+                double_sided: true,
+                cull_mode: None,
+                ..default()
+            })),
+            Transform::from_xyz((i as f32 - 1.0) * 2.3, 0.0, 0.0),
+        ));
+        cmp.rows.push((name, None, 0, handle));
+    }
+    let (fly, t) =
+        common::FlyCam::looking(Vec3::new(0.0, 1.6, 5.2), Vec3::new(0.0, -0.1, 0.0), 2.0);
+    commands.spawn((Camera3d::default(), fly, t));
+    common::spawn_lights(&mut commands);
+    rebuild(&mut cmp, &mut meshes, true);
+}
+
+/// Samples the scene once and runs all three meshers (`resample`), or only
+/// re-cuts the two trees at the current threshold.
+fn rebuild(cmp: &mut Compare, meshes: &mut Assets<Mesh>, resample: bool) {
+    if resample {
+        let scene = match scenes::scene(&cmp.scene) {
+            Ok(s) => s,
+            Err(e) => {
+                cmp.error = Some(e.to_string());
+                return;
+            }
+        };
+        let settings = Settings::default();
+        let grid = Grid::cube(1.0, cmp.res);
+        let sampled = match meshers::sample(&*scene.field, &grid, &settings) {
+            Ok(s) => s,
+            Err(e) => {
+                cmp.error = Some(e.to_string());
+                return;
+            }
+        };
+        cmp.sample_ms = sampled.sample_ms;
+        let h = &sampled.hermite;
+        let mc = mc::marching_cubes(h);
+        cmp.rows[0].2 = mc.triangle_count();
+        if let Some(mut m) = meshes.get_mut(&cmp.rows[0].3) {
+            *m = to_mesh(&mc);
+        }
+        cmp.rows[1].1 = Some(kdtree::build_with(h, Partition::Octree));
+        cmp.rows[2].1 = Some(kdtree::build_with(h, Partition::KdTree));
+        cmp.error = None;
+    }
+    for i in 1..3 {
+        let Some(tree) = &cmp.rows[i].1 else { continue };
+        let m = tree.mesh(cmp.threshold);
+        cmp.rows[i].2 = m.triangle_count();
+        if let Some(mut mesh) = meshes.get_mut(&cmp.rows[i].3) {
+            *mesh = to_mesh(&m);
+        }
+    }
+}
+
+fn panel(
+    mut contexts: EguiContexts,
+    mut cmp: ResMut<Compare>,
+    mut meshes: ResMut<Assets<Mesh>>,
+) -> Result {
+    let ctx = contexts.ctx_mut()?;
+    let mut resample = false;
+    let mut recut = false;
+    egui::Window::new("compare")
+        .default_pos([10.0, 10.0])
+        .resizable(false)
+        .show(ctx, |ui| {
+            let mut scene = cmp.scene.clone();
+            egui::ComboBox::from_label("scene")
+                .selected_text(&scene)
+                .show_ui(ui, |ui| {
+                    for name in scenes::SCENES {
+                        ui.selectable_value(&mut scene, name.to_string(), *name);
+                    }
+                });
+            if scene != cmp.scene {
+                cmp.scene = scene;
+                resample = true;
+            }
+            let mut res = cmp.res;
+            ui.add(egui::Slider::new(&mut res, 8..=128).text("cells per side"));
+            if res != cmp.res {
+                cmp.res = res;
+                resample = true;
+            }
+            let mut t = cmp.threshold;
+            ui.add(
+                egui::Slider::new(&mut t, 1e-4..=1.0)
+                    .logarithmic(true)
+                    .text("threshold"),
+            );
+            if t != cmp.threshold {
+                cmp.threshold = t;
+                recut = true;
+            }
+            ui.separator();
+            egui::Grid::new("rows").num_columns(3).show(ui, |ui| {
+                ui.strong("mesher");
+                ui.strong("triangles");
+                ui.strong("vs MC");
+                ui.end_row();
+                let mc = cmp.rows.first().map(|r| r.2).unwrap_or(0).max(1);
+                for (name, _, tris, _) in &cmp.rows {
+                    ui.label(*name);
+                    ui.label(tris.to_string());
+                    ui.label(format!("{:.2}", *tris as f64 / mc as f64));
+                    ui.end_row();
+                }
+            });
+            ui.small(format!(
+                "sampled once in {:.0} ms; the slider re-cuts the trees",
+                cmp.sample_ms
+            ));
+            if let Some(e) = &cmp.error {
+                ui.colored_label(egui::Color32::LIGHT_RED, e);
+            }
+        });
+    if resample || recut {
+        rebuild(&mut cmp, &mut meshes, resample);
+    }
+    Ok(())
+}

@@ -1,0 +1,273 @@
+//! The main demo: endless noise terrain with overhangs and caves, streamed in
+//! chunks around a fly camera, each chunk cut at a threshold set by its distance to
+//! the camera (coarser far away, no cracks between chunks), and sculpted with the
+//! mouse. The brush is aimed by a ray cast against the field itself, not the mesh,
+//! so it hits what the field says is there even before a chunk is meshed.
+//!
+//! Keys: WASD move, E / Space up, Q down, Shift faster, arrow keys or middle mouse
+//! drag to look. Left mouse adds material, right mouse digs, the wheel sets the
+//! brush size. F1 hides the panel.
+//!
+//! ```text
+//! cargo run --release --example terrain
+//! cargo run --release --example terrain -- --screenshot terrain.png
+//! ```
+
+mod common;
+
+use bevy::input::mouse::AccumulatedMouseScroll;
+use bevy::prelude::*;
+use bevy_kdcontour::kdcontour::field::raycast;
+use bevy_kdcontour::kdcontour::field::terrain::{CaveParams, Density, DensityParams};
+use bevy_kdcontour::kdcontour::Field;
+use bevy_kdcontour::panel::{KdContourPanel, KdContourPanelPlugin};
+use bevy_kdcontour::prelude::*;
+use clap::Parser;
+use common::{FlyCam, ShotArgs, ShotPlugin};
+use std::sync::Arc;
+
+/// Streaming terrain with camera LOD and sculpting.
+#[derive(Parser, Debug)]
+struct Args {
+    /// Noise seed.
+    #[arg(long, default_value_t = 7)]
+    seed: u32,
+    /// Load radius around the camera, in cells.
+    #[arg(long, default_value_t = 160.0)]
+    view_distance: f32,
+    /// Cells per chunk side.
+    #[arg(long, default_value_t = 32)]
+    chunk_res: u32,
+    #[command(flatten)]
+    shot: ShotArgs,
+}
+
+#[derive(Resource)]
+struct Sculpt {
+    volume: Entity,
+    radius: f32,
+    cooldown: f32,
+    /// Where the brush would land (for the preview), if the ray hits.
+    aim: Option<Vec3>,
+}
+
+fn main() {
+    let args = Args::parse();
+    if !(args.view_distance.is_finite() && args.view_distance > 0.0) {
+        common::fail(format!(
+            "--view-distance must be a positive number of cells, got {}",
+            args.view_distance
+        ));
+    }
+    if !(4..=128).contains(&args.chunk_res) {
+        common::fail(format!(
+            "--chunk-res must be 4 to 128, got {}",
+            args.chunk_res
+        ));
+    }
+    let field: Arc<dyn Field> = Arc::new(Density::new(DensityParams {
+        seed: args.seed,
+        base: 0.0,
+        amplitude: 22.0,
+        frequency: 0.011,
+        octaves: 5,
+        caves: Some(CaveParams {
+            frequency: 0.018,
+            radius: 0.11,
+        }),
+    }));
+    let scripted = args.shot.screenshot.is_some();
+    App::new()
+        .insert_resource(ClearColor(Color::srgb(0.62, 0.75, 0.9)))
+        .add_plugins((
+            common::default_plugins("bevy_kdcontour: terrain", &args.shot),
+            KdContourPlugin {
+                settings: KdContourSettings {
+                    max_tasks_in_flight: 4,
+                    lod: LodSettings {
+                        base: 0.02,
+                        near: 40.0,
+                        growth: 2.0,
+                        max: 4.0,
+                        ..default()
+                    },
+                    ..default()
+                },
+            },
+            KdContourPanelPlugin {
+                panel: KdContourPanel {
+                    iso_range: -8.0..=8.0,
+                    ..default()
+                },
+            },
+            ShotPlugin(args.shot.clone()),
+        ))
+        .insert_resource(Seed {
+            field,
+            view: args.view_distance,
+            res: args.chunk_res,
+            scripted,
+        })
+        .add_systems(Startup, setup)
+        .add_systems(
+            Update,
+            (common::fly_camera, sculpt, brush_preview, scripted_edits).chain(),
+        )
+        .run();
+}
+
+#[derive(Resource)]
+struct Seed {
+    field: Arc<dyn Field>,
+    view: f32,
+    res: u32,
+    scripted: bool,
+}
+
+fn setup(mut commands: Commands, seed: Res<Seed>, mut materials: ResMut<Assets<StandardMaterial>>) {
+    let ground = materials.add(StandardMaterial {
+        base_color: Color::srgb(0.47, 0.56, 0.33),
+        perceptual_roughness: 0.95,
+        ..default()
+    });
+    let volume = commands
+        .spawn(
+            KdVolume::streaming(seed.field.clone(), seed.res, 1.0, seed.view)
+                .with_rows(-3, 1)
+                .with_material(ground),
+        )
+        .id();
+    let (fly, transform) = common::FlyCam::looking(
+        Vec3::new(-30.0, 42.0, 70.0),
+        Vec3::new(25.0, 0.0, -5.0),
+        30.0,
+    );
+    commands.spawn((
+        Camera3d::default(),
+        fly,
+        transform,
+        LodCamera,
+        DistanceFog {
+            color: Color::srgb(0.62, 0.75, 0.9),
+            falloff: FogFalloff::Linear {
+                start: seed.view * 0.55,
+                end: seed.view * 0.95,
+            },
+            ..default()
+        },
+    ));
+    common::spawn_lights(&mut commands);
+    commands.insert_resource(Sculpt {
+        volume,
+        radius: 5.0,
+        cooldown: 0.0,
+        aim: None,
+    });
+}
+
+/// The field point under the cursor, in the volume's local space (the volume sits
+/// at the origin, unrotated).
+fn aim(
+    window: &Window,
+    camera: (&Camera, &GlobalTransform),
+    state: &VolumeState,
+    max: f32,
+) -> Option<Vec3> {
+    let cursor = window.cursor_position()?;
+    let ray = camera.0.viewport_to_world(camera.1, cursor).ok()?;
+    let t = raycast(state.field(), ray.origin, *ray.direction, max, 0.5)?;
+    Some(ray.origin + *ray.direction * t)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn sculpt(
+    time: Res<Time>,
+    buttons: Res<ButtonInput<MouseButton>>,
+    scroll: Res<AccumulatedMouseScroll>,
+    windows: Query<&Window>,
+    cameras: Query<(&Camera, &GlobalTransform), With<FlyCam>>,
+    volumes: Query<&VolumeState>,
+    mut panel: ResMut<KdContourPanel>,
+    mut sculpt: ResMut<Sculpt>,
+    mut edits: MessageWriter<ApplyEdit>,
+) {
+    panel.extra = vec![
+        format!("brush radius {:.1} (wheel)", sculpt.radius),
+        "left: add   right: dig".into(),
+    ];
+    if panel.pointer_over {
+        sculpt.aim = None;
+        return;
+    }
+    sculpt.radius = (sculpt.radius * (1.0 + 0.1 * scroll.delta.y)).clamp(1.0, 40.0);
+    let (Ok(window), Ok(camera), Ok(state)) = (
+        windows.single(),
+        cameras.single(),
+        volumes.get(sculpt.volume),
+    ) else {
+        return;
+    };
+    sculpt.aim = aim(window, camera, state, 400.0);
+    sculpt.cooldown -= time.delta_secs();
+    let op = if buttons.pressed(MouseButton::Left) {
+        BrushOp::SmoothAdd { radius: 1.5 }
+    } else if buttons.pressed(MouseButton::Right) {
+        BrushOp::SmoothSubtract { radius: 1.5 }
+    } else {
+        return;
+    };
+    let (Some(at), true) = (sculpt.aim, sculpt.cooldown <= 0.0) else {
+        return;
+    };
+    sculpt.cooldown = 0.08;
+    edits.write(ApplyEdit {
+        volume: sculpt.volume,
+        brush: Brush::sphere(at, sculpt.radius, op),
+    });
+}
+
+fn brush_preview(sculpt: Res<Sculpt>, mut gizmos: Gizmos) {
+    if let Some(at) = sculpt.aim {
+        gizmos.sphere(
+            Isometry3d::from_translation(at),
+            sculpt.radius,
+            Color::srgb(1.0, 0.85, 0.2),
+        );
+    }
+}
+
+/// In screenshot mode: dig a crater and raise a mound where the screen centre
+/// looks, the way a user's clicks would, so the picture shows edits.
+fn scripted_edits(
+    seed: Res<Seed>,
+    mut done: Local<bool>,
+    sculpt: Res<Sculpt>,
+    cameras: Query<(&Camera, &GlobalTransform), With<FlyCam>>,
+    volumes: Query<&VolumeState>,
+    mut edits: MessageWriter<ApplyEdit>,
+) {
+    if !seed.scripted || *done {
+        return;
+    }
+    let (Ok((camera, tf)), Ok(state)) = (cameras.single(), volumes.get(sculpt.volume)) else {
+        return;
+    };
+    let Some(size) = camera.logical_viewport_size() else {
+        return;
+    };
+    *done = true;
+    for (fx, fy, op, r) in [
+        (0.5, 0.55, BrushOp::SmoothSubtract { radius: 2.0 }, 11.0),
+        (0.3, 0.6, BrushOp::SmoothAdd { radius: 3.0 }, 8.0),
+    ] {
+        let Ok(ray) = camera.viewport_to_world(tf, size * Vec2::new(fx, fy)) else {
+            continue;
+        };
+        if let Some(t) = raycast(state.field(), ray.origin, *ray.direction, 400.0, 0.5) {
+            edits.write(ApplyEdit {
+                volume: sculpt.volume,
+                brush: Brush::sphere(ray.origin + *ray.direction * t, r, op),
+            });
+        }
+    }
+}

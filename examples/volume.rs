@@ -1,0 +1,238 @@
+//! A scanned volume as a surface: a raw voxel file or a NIfTI-1 scan (`.nii`,
+//! `.nii.gz`), or, with no file, a generated CT of the 3-D Shepp-Logan head phantom.
+//! The iso-value slider moves the surface through the scan's values (skull,
+//! brain, ventricles); every change re-meshes the chunks in the background while
+//! the old mesh stays on screen.
+//!
+//! Keys: WASD / E / Q and arrows or middle mouse to fly. F1 hides the panel.
+//!
+//! ```text
+//! cargo run --release --example volume
+//! cargo run --release --example volume -- --file head.nii.gz --iso 300
+//! cargo run --release --example volume -- --file ct.raw --dims 256,256,128 --type u16 --spacing 0.5,0.5,1
+//! ```
+
+mod common;
+
+use bevy::prelude::*;
+use bevy_kdcontour::kdcontour::field::volume::{Inside, SampledVolume};
+use bevy_kdcontour::kdcontour::io::volume::{load_nifti, load_raw, phantom, VoxelType};
+use bevy_kdcontour::panel::bevy_egui::{egui, EguiContexts, EguiPrimaryContextPass};
+use bevy_kdcontour::panel::{KdContourPanel, KdContourPanelPlugin};
+use bevy_kdcontour::prelude::*;
+use clap::Parser;
+use common::{ShotArgs, ShotPlugin};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// Iso-surfaces of a voxel volume.
+#[derive(Parser, Debug)]
+struct Args {
+    /// A `.nii` / `.nii.gz` scan, or a headerless raw file (then give --dims and
+    /// --type). Without it, a generated phantom CT is shown.
+    #[arg(long)]
+    file: Option<PathBuf>,
+    /// Raw files: voxels along x, y, z.
+    #[arg(long, value_parser = parse_triple::<u32>)]
+    dims: Option<[u32; 3]>,
+    /// Raw files: u8, u16, i16 or f32 (little endian).
+    #[arg(long, default_value = "u8")]
+    r#type: String,
+    /// Raw files: voxel spacing along x, y, z.
+    #[arg(long, value_parser = parse_triple::<f32>, default_value = "1,1,1")]
+    spacing: [f32; 3],
+    /// Starting iso value (default: the phantom's skull, or the middle of the
+    /// file's value range).
+    #[arg(long)]
+    iso: Option<f32>,
+    /// Values below the iso value are inside (default: above, as in CT).
+    #[arg(long)]
+    below: bool,
+    /// Phantom voxels per side.
+    #[arg(long, default_value_t = 96)]
+    phantom: u32,
+    #[command(flatten)]
+    shot: ShotArgs,
+}
+
+fn parse_triple<T: std::str::FromStr>(s: &str) -> Result<[T; 3], String> {
+    let v: Vec<T> = s
+        .split(',')
+        .map(|t| {
+            t.trim()
+                .parse::<T>()
+                .map_err(|_| format!("{t:?} is not a number"))
+        })
+        .collect::<Result<_, _>>()?;
+    <[T; 3]>::try_from(v).map_err(|_| format!("{s:?}: give three values, like 64,64,32"))
+}
+
+#[derive(Resource)]
+struct Scan {
+    volume: SampledVolume,
+    name: String,
+    range: (f32, f32),
+    iso: f32,
+    entity: Option<Entity>,
+}
+
+fn load(args: &Args) -> Result<(SampledVolume, String), String> {
+    let inside = if args.below {
+        Inside::Below
+    } else {
+        Inside::Above
+    };
+    let Some(path) = &args.file else {
+        if !(8..=256).contains(&args.phantom) {
+            return Err(format!("--phantom must be 8 to 256, got {}", args.phantom));
+        }
+        let mut v = phantom(args.phantom);
+        v.inside = inside;
+        return Ok((v, format!("Shepp-Logan phantom, {}^3", args.phantom)));
+    };
+    let name = path.display().to_string();
+    let lower = name.to_ascii_lowercase();
+    let v = if lower.ends_with(".nii") || lower.ends_with(".nii.gz") {
+        load_nifti(path, 0.0, inside).map_err(|e| e.to_string())?
+    } else {
+        let dims = args.dims.ok_or_else(|| {
+            format!("{name}: a raw file needs --dims X,Y,Z (and --type, --spacing)")
+        })?;
+        let ty = VoxelType::parse(&args.r#type)
+            .ok_or_else(|| format!("--type {:?}: use u8, u16, i16 or f32", args.r#type))?;
+        load_raw(
+            path,
+            UVec3::from_array(dims),
+            ty,
+            Vec3::from_array(args.spacing),
+            0.0,
+            inside,
+        )
+        .map_err(|e| e.to_string())?
+    };
+    Ok((v, name))
+}
+
+fn main() {
+    let args = Args::parse();
+    let (volume, name) = load(&args).unwrap_or_else(|e| common::fail(e));
+    let range = volume.range();
+    if !(range.0.is_finite() && range.1.is_finite()) || range.0 == range.1 {
+        common::fail(format!(
+            "{name}: the voxel values span {range:?}; there is no surface to show"
+        ));
+    }
+    let iso = args.iso.unwrap_or(if args.file.is_none() {
+        1.5
+    } else {
+        0.5 * (range.0 + range.1)
+    });
+    App::new()
+        .insert_resource(ClearColor(Color::srgb(0.1, 0.11, 0.13)))
+        .add_plugins((
+            common::default_plugins("bevy_kdcontour: volume", &args.shot),
+            KdContourPlugin {
+                settings: KdContourSettings {
+                    lod: LodSettings {
+                        enabled: false,
+                        ..default()
+                    },
+                    default_threshold: 0.02,
+                    ..default()
+                },
+            },
+            KdContourPanelPlugin {
+                panel: KdContourPanel {
+                    show_iso: false,
+                    ..default()
+                },
+            },
+            ShotPlugin(args.shot.clone()),
+        ))
+        .insert_resource(Scan {
+            volume,
+            name,
+            range,
+            iso,
+            entity: None,
+        })
+        .add_systems(Startup, setup)
+        .add_systems(Update, common::fly_camera)
+        .add_systems(EguiPrimaryContextPass, iso_panel)
+        .run();
+}
+
+/// The scan's field at `iso`, with voxel (0, 0, 0) at the local origin.
+fn field_at(scan: &Scan, iso: f32) -> Arc<dyn bevy_kdcontour::kdcontour::Field> {
+    let mut v = scan.volume.clone();
+    v.iso = iso;
+    v.origin = Vec3::ZERO;
+    Arc::new(v)
+}
+
+fn setup(
+    mut commands: Commands,
+    mut scan: ResMut<Scan>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+) {
+    let (lo, hi) = scan.volume.bounds();
+    let extent = hi - lo;
+    // About 128 cells along the longest side, in chunks of 16 cells.
+    let cell = extent.max_element() / 128.0;
+    let res = 16;
+    let chunks = (extent / (cell * res as f32))
+        .ceil()
+        .as_uvec3()
+        .max(UVec3::ONE);
+    let material = materials.add(StandardMaterial {
+        base_color: Color::srgb(0.93, 0.88, 0.8),
+        perceptual_roughness: 0.6,
+        double_sided: true,
+        cull_mode: None,
+        ..default()
+    });
+    let scale = 2.0 / extent.max_element();
+    let entity = commands
+        .spawn((
+            KdVolume::new(field_at(&scan, scan.iso), chunks, res, cell).with_material(material),
+            // Centred at the origin, two units across.
+            Transform::from_scale(Vec3::splat(scale)).with_translation(-extent * 0.5 * scale),
+        ))
+        .id();
+    scan.entity = Some(entity);
+    let (fly, t) = common::FlyCam::looking(Vec3::new(1.7, 0.9, 2.2), Vec3::ZERO, 1.0);
+    commands.spawn((Camera3d::default(), fly, t, LodCamera));
+    common::spawn_lights(&mut commands);
+}
+
+fn iso_panel(
+    mut contexts: EguiContexts,
+    mut scan: ResMut<Scan>,
+    mut replace: MessageWriter<ReplaceField>,
+) -> Result {
+    let ctx = contexts.ctx_mut()?;
+    let mut iso = scan.iso;
+    egui::Window::new("volume")
+        .default_pos([10.0, 330.0])
+        .resizable(false)
+        .show(ctx, |ui| {
+            ui.label(&scan.name);
+            let v = &scan.volume;
+            ui.label(format!(
+                "{} x {} x {} voxels, spacing {:.3} x {:.3} x {:.3}",
+                v.dims.x, v.dims.y, v.dims.z, v.spacing.x, v.spacing.y, v.spacing.z
+            ));
+            ui.add(egui::Slider::new(&mut iso, scan.range.0..=scan.range.1).text("iso value"));
+        });
+    if iso != scan.iso {
+        scan.iso = iso;
+        if let Some(volume) = scan.entity {
+            replace.write(ReplaceField {
+                volume,
+                field: SharedField(field_at(&scan, iso)),
+                regions: None,
+            });
+        }
+    }
+    Ok(())
+}

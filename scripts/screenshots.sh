@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Renders every example under a virtual X server with Mesa's software Vulkan
+# (lavapipe) and saves the pictures the README shows, in docs/.
+#
+#   scripts/screenshots.sh            # release build, all examples
+#   PROFILE=test scripts/screenshots.sh terrain   # reuse `cargo test`'s build
+#
+# Each example exits non-zero if its picture is one flat colour or it errors.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+profile=${PROFILE:-release}
+examples=("$@")
+[ ${#examples[@]} -eq 0 ] && examples=(terrain csg_editor lod compare volume)
+
+if ! command -v xvfb-run >/dev/null || ! ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1; then
+    echo "== installing Xvfb and Mesa's software Vulkan"
+    apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq mesa-vulkan-drivers libvulkan1 xvfb xauth
+fi
+
+dir=target/$([ "$profile" = dev ] || [ "$profile" = test ] && echo debug || echo "$profile")
+for ex in "${examples[@]}"; do
+    cargo build -q --profile "$profile" --example "$ex"
+    out=docs/$ex.png
+    extra=()
+    # The editor loads a scene file if one exists; render the built-in one.
+    [ "$ex" = csg_editor ] && extra=(--scene target/screenshot_scene.json) && rm -f target/screenshot_scene.json
+    echo "== $ex -> $out"
+    start=$(date +%s)
+    xvfb-run -a -s "-screen 0 1280x720x24" "$dir/examples/$ex" "${extra[@]}" --screenshot "$out" --frames 20
+    echo "   $(( $(date +%s) - start )) s"
+    test -s "$out"
+done
