@@ -298,8 +298,8 @@ fn starter() -> Vec<Shape> {
         s(
             Kind::Cylinder,
             Op::Difference,
-            Vec3::new(0.0, 0.0, 0.0),
-            1.0,
+            Vec3::new(0.0, 1.15, 0.0),
+            1.1,
         ),
         s(
             Kind::Torus,
@@ -310,8 +310,8 @@ fn starter() -> Vec<Shape> {
         s(
             Kind::Capsule,
             Op::SmoothDifference,
-            Vec3::new(0.75, 0.3, 0.45),
-            0.8,
+            Vec3::new(0.55, 0.1, 0.75),
+            0.9,
         ),
     ]
 }
@@ -329,6 +329,9 @@ fn main() {
             common::default_plugins("bevy_kdcontour: csg_editor", &args.shot),
             KdContourPlugin {
                 settings: KdContourSettings {
+                    // Chunk tasks take milliseconds; allow many per frame so
+                    // a slow (software-rendered) frame does not throttle meshing.
+                    max_tasks_in_flight: 32,
                     lod: LodSettings {
                         enabled: false,
                         ..default()

@@ -59,6 +59,9 @@ fn main() {
             common::default_plugins("bevy_kdcontour: lod", &args.shot),
             KdContourPlugin {
                 settings: KdContourSettings {
+                    // Chunk tasks take milliseconds; allow many per frame so
+                    // a slow (software-rendered) frame does not throttle meshing.
+                    max_tasks_in_flight: 32,
                     color_by_lod: true,
                     lod: LodSettings {
                         base: 0.01,
@@ -76,8 +79,8 @@ fn main() {
         .insert_resource(Flight {
             paused: false,
             angle: 0.6,
-            centre: Vec3::new(side * 0.5, 0.0, side * 0.5),
-            radius: side * 0.3,
+            centre: Vec3::new(side * 0.5, args.chunk_res as f32, side * 0.5),
+            radius: side * 0.32,
         })
         .insert_resource(Block {
             chunks: args.chunks,
@@ -134,8 +137,8 @@ fn fly(
         flight.angle += time.delta_secs() * 0.15;
     }
     let (a, r, c) = (flight.angle, flight.radius, flight.centre);
-    let pos = c + Vec3::new(a.cos() * r, r * 0.45, a.sin() * r);
-    let ahead = c + Vec3::new((a + 0.9).cos() * r * 0.6, 0.0, (a + 0.9).sin() * r * 0.6);
+    let pos = c + Vec3::new(a.cos() * r, r * 0.9, a.sin() * r);
+    let ahead = c + Vec3::new((a + 1.2).cos() * r * 0.5, 0.0, (a + 1.2).sin() * r * 0.5);
     for (mut cam, mut t) in &mut cams {
         let look = Transform::from_translation(pos).looking_at(ahead, Vec3::Y);
         let (yaw, pitch, _) = look.rotation.to_euler(EulerRot::YXZ);

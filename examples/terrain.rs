@@ -83,7 +83,9 @@ fn main() {
             common::default_plugins("bevy_kdcontour: terrain", &args.shot),
             KdContourPlugin {
                 settings: KdContourSettings {
-                    max_tasks_in_flight: 4,
+                    // Chunk tasks take milliseconds; allow many per frame so
+                    // a slow (software-rendered) frame does not throttle meshing.
+                    max_tasks_in_flight: 16,
                     lod: LodSettings {
                         base: 0.02,
                         near: 40.0,

@@ -133,6 +133,9 @@ fn main() {
             common::default_plugins("bevy_kdcontour: volume", &args.shot),
             KdContourPlugin {
                 settings: KdContourSettings {
+                    // Chunk tasks take milliseconds; allow many per frame so
+                    // a slow (software-rendered) frame does not throttle meshing.
+                    max_tasks_in_flight: 32,
                     lod: LodSettings {
                         enabled: false,
                         ..default()

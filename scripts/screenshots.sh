@@ -3,12 +3,15 @@
 # (lavapipe) and saves the pictures the README shows, in docs/.
 #
 #   scripts/screenshots.sh            # release build, all examples
-#   PROFILE=test scripts/screenshots.sh terrain   # reuse `cargo test`'s build
+#   PROFILE=test OUT=target/shots scripts/screenshots.sh terrain
+#                                     # reuse `cargo test`'s build (what CI does)
 #
 # Each example exits non-zero if its picture is one flat colour or it errors.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 profile=${PROFILE:-release}
+out_dir=${OUT:-docs}
+mkdir -p "$out_dir"
 examples=("$@")
 [ ${#examples[@]} -eq 0 ] && examples=(terrain csg_editor lod compare volume)
 
@@ -21,13 +24,13 @@ fi
 dir=target/$([ "$profile" = dev ] || [ "$profile" = test ] && echo debug || echo "$profile")
 for ex in "${examples[@]}"; do
     cargo build -q --profile "$profile" --example "$ex"
-    out=docs/$ex.png
+    out=$out_dir/$ex.png
     extra=()
     # The editor loads a scene file if one exists; render the built-in one.
     [ "$ex" = csg_editor ] && extra=(--scene target/screenshot_scene.json) && rm -f target/screenshot_scene.json
     echo "== $ex -> $out"
     start=$(date +%s)
-    xvfb-run -a -s "-screen 0 1280x720x24" "$dir/examples/$ex" "${extra[@]}" --screenshot "$out" --frames 20
+    timeout 1200 xvfb-run -a -s "-screen 0 1280x720x24" "$dir/examples/$ex" "${extra[@]}" --screenshot "$out" --frames 20
     echo "   $(( $(date +%s) - start )) s"
     test -s "$out"
 done
