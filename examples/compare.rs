@@ -13,11 +13,11 @@
 mod common;
 
 use bevy::asset::RenderAssetUsages;
-use bevy::mesh::{Indices, PrimitiveTopology};
+use bevy::mesh::PrimitiveTopology;
 use bevy::pbr::wireframe::WireframeConfig;
 use bevy::prelude::*;
 use bevy_kdcontour::kdcontour::kdtree::{self, Partition};
-use bevy_kdcontour::kdcontour::{mc, meshers, scenes, Grid, IndexedMesh, KdTree, Settings};
+use bevy_kdcontour::kdcontour::{mc, meshers, scenes, Grid, KdTree, Settings};
 use bevy_kdcontour::panel::bevy_egui::{egui, EguiContexts, EguiPrimaryContextPass};
 use bevy_kdcontour::panel::{KdContourPanel, KdContourPanelPlugin};
 use bevy_kdcontour::prelude::*;
@@ -94,22 +94,6 @@ fn main() {
         .run();
 }
 
-fn to_mesh(m: &IndexedMesh) -> Mesh {
-    Mesh::new(
-        PrimitiveTopology::TriangleList,
-        RenderAssetUsages::default(),
-    )
-    .with_inserted_attribute(
-        Mesh::ATTRIBUTE_POSITION,
-        m.positions.iter().map(|p| p.to_array()).collect::<Vec<_>>(),
-    )
-    .with_inserted_attribute(
-        Mesh::ATTRIBUTE_NORMAL,
-        m.normals.iter().map(|n| n.to_array()).collect::<Vec<_>>(),
-    )
-    .with_inserted_indices(Indices::U32(m.indices.clone()))
-}
-
 fn setup(
     mut commands: Commands,
     mut cmp: ResMut<Compare>,
@@ -175,7 +159,7 @@ fn rebuild(cmp: &mut Compare, meshes: &mut Assets<Mesh>, resample: bool) {
         let mc = mc::marching_cubes(h);
         cmp.rows[0].2 = mc.triangle_count();
         if let Some(mut m) = meshes.get_mut(&cmp.rows[0].3) {
-            *m = to_mesh(&mc);
+            *m = bevy_kdcontour::to_bevy_mesh(&mc);
         }
         cmp.rows[1].1 = Some(kdtree::build_with(h, Partition::Octree));
         cmp.rows[2].1 = Some(kdtree::build_with(h, Partition::KdTree));
@@ -186,7 +170,7 @@ fn rebuild(cmp: &mut Compare, meshes: &mut Assets<Mesh>, resample: bool) {
         let m = tree.mesh(cmp.threshold);
         cmp.rows[i].2 = m.triangle_count();
         if let Some(mut mesh) = meshes.get_mut(&cmp.rows[i].3) {
-            *mesh = to_mesh(&m);
+            *mesh = bevy_kdcontour::to_bevy_mesh(&m);
         }
     }
 }

@@ -1237,7 +1237,9 @@ fn gather_stats(
     stats.main_thread_ms = stats.frame_ms;
 }
 
-fn to_bevy_mesh(m: &IndexedMesh) -> Mesh {
+/// A core mesh as a Bevy triangle-list mesh (positions, normals, u32 indices), as
+/// the plugin uploads it.
+pub fn to_bevy_mesh(m: &IndexedMesh) -> Mesh {
     Mesh::new(
         PrimitiveTopology::TriangleList,
         RenderAssetUsages::default(),
