@@ -3,13 +3,18 @@
 # (lavapipe) and saves the pictures the README shows, in docs/.
 #
 #   scripts/screenshots.sh            # release build, all examples
-#   PROFILE=test OUT=target/shots scripts/screenshots.sh terrain
-#                                     # reuse `cargo test`'s build (what CI does)
+#   PROFILE=test BUILD=0 OUT=target/shots scripts/screenshots.sh terrain
+#                                     # run what `cargo test --workspace` built (CI)
+#
+# Builds use --workspace so features unify exactly as in `cargo test --workspace`
+# (building one package alone resolves some shared crates' features differently
+# and rebuilds Bevy).
 #
 # Each example exits non-zero if its picture is one flat colour or it errors.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 profile=${PROFILE:-release}
+build=${BUILD:-1}
 out_dir=${OUT:-docs}
 mkdir -p "$out_dir"
 examples=("$@")
@@ -23,7 +28,10 @@ fi
 
 dir=target/$([ "$profile" = dev ] || [ "$profile" = test ] && echo debug || echo "$profile")
 for ex in "${examples[@]}"; do
-    cargo build -q --profile "$profile" --example "$ex"
+    if [ "$build" != 0 ]; then
+        cargo build -q --profile "$profile" --workspace --example "$ex"
+    fi
+    test -x "$dir/examples/$ex" || { echo "error: $dir/examples/$ex is not built"; exit 1; }
     out=$out_dir/$ex.png
     extra=()
     # The editor loads a scene file if one exists; render the built-in one.
