@@ -1,8 +1,9 @@
-//! Times each build stage on one thread (best of `reps`) and prints the tree's size.
+//! Times each build stage (best of `reps`, on `threads` threads, default 1) and
+//! prints the tree's size.
 //! The scene `chunk` is the streaming-terrain chunk of the Bevy plugin: 32³ cells
 //! of 1 m over a 5-octave fBm height field.
 //!
-//! `cargo run --release -p kdcontour --example stages -- disk_pole 128 [reps]`
+//! `cargo run --release -p kdcontour --example stages -- disk_pole 128 [reps] [threads]`
 //! `cargo run --release -p kdcontour --example stages -- chunk 32 50`
 
 use kdcontour::field::terrain::{Heightfield, HeightfieldParams};
@@ -21,6 +22,10 @@ fn main() {
         .map(|s| s.parse().expect("reps is a number"))
         .unwrap_or(1)
         .max(1);
+    let threads: usize = args
+        .next()
+        .map(|s| s.parse().expect("threads is a number"))
+        .unwrap_or(1);
     let (field, grid): (Box<dyn Field>, Grid) = if name == "chunk" {
         let field = Heightfield::new(HeightfieldParams {
             seed: 3,
@@ -41,12 +46,13 @@ fn main() {
         (scene.field, Grid::cube(1.0, res))
     };
     let settings = Settings {
-        threads: 1,
+        threads,
         ..Default::default()
     };
     let ms = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e3;
     let mut best = [f64::INFINITY; 4];
     let mut mesh = IndexedMesh::default();
+    let mut info = String::new();
     settings
         .run(|| {
             for _ in 0..reps {
@@ -65,22 +71,21 @@ fn main() {
                 {
                     *b = b.min(t);
                 }
-                if best[0] == ms(t0, t1) || reps == 1 {
-                    println!(
-                        "{name} res {res}: {} active cells, {} nodes, {} components, \
+                info = format!(
+                    "{name} res {res}: {} active cells, {} nodes, {} components, \
                          {:.1} bytes per node, {} triangles at 0.01",
-                        h.cells.len(),
-                        tree.nodes.len(),
-                        tree.comps.len(),
-                        tree.retained_bytes() as f64 / tree.nodes.len().max(1) as f64,
-                        mesh.triangle_count()
-                    );
-                }
+                    h.cells.len(),
+                    tree.nodes.len(),
+                    tree.comps.len(),
+                    tree.retained_bytes() as f64 / tree.nodes.len().max(1) as f64,
+                    mesh.triangle_count()
+                );
             }
         })
         .unwrap();
+    println!("{info}");
     println!(
-        "best of {reps}: sample {:.3} ms, hermite {:.3} ms, build {:.3} ms, extract {:.3} ms, \
+        "best of {reps} on {threads} thread(s): sample {:.3} ms, hermite {:.3} ms, build {:.3} ms, extract {:.3} ms, \
          total {:.3} ms",
         best[0],
         best[1],

@@ -363,8 +363,7 @@ fn kd_split(
     let mut best: Option<(f64, usize, u16, Qef, Qef)> = None;
     for &axis in order.iter().filter(|&&a| ext[a] > 1) {
         let occ = (occ_lo[axis] as usize, occ_hi[axis] as usize);
-        let (split, l, r) = split_on_axis(ctx, ids, min, ext, axis, occ, &total);
-        let score = l.fast_min_error() + r.fast_min_error();
+        let (split, l, r, score) = split_on_axis(ctx, ids, min, ext, axis, occ, &total);
         if best
             .as_ref()
             .is_none_or(|b| score < b.0 * (1.0 - 1e-9) - 1e-12)
@@ -376,8 +375,9 @@ fn kd_split(
     (axis, split, l, r)
 }
 
-/// The plane along `axis` that gives both halves equal `E1`, and the halves' QEFs.
-/// `occ` is the range of slabs (relative to `min`) that hold cells.
+/// The plane along `axis` that gives both halves equal `E1`, the halves' QEFs and
+/// the sum of their `E1`. `occ` is the range of slabs (relative to `min`) that hold
+/// cells.
 fn split_on_axis(
     ctx: &Ctx,
     ids: &[u32],
@@ -386,7 +386,7 @@ fn split_on_axis(
     axis: usize,
     occ: (usize, usize),
     total: &Qef,
-) -> (u16, Qef, Qef) {
+) -> (u16, Qef, Qef, f64) {
     let total = *total;
     let len = ext[axis] as usize;
     let (occ_lo, occ_hi) = occ;
@@ -416,11 +416,12 @@ fn split_on_axis(
             &pre[(s - occ_lo).min(span)]
         }
     };
-    // E1(left) - E1(right) at `s`, memoised: both binary searches below start on
-    // the same probes, and the final choice looks at two of them again.
-    let mut memo: [(usize, f64); 40] = [(usize::MAX, 0.0); 40];
+    // E1 of the left and right halves at `s`, memoised: both binary searches
+    // below start on the same probes, the final choice looks at two of them again,
+    // and the caller scores the split by their sum.
+    let mut memo: [(usize, f64, f64); 40] = [(usize::MAX, 0.0, 0.0); 40];
     let mut memo_len = 0usize;
-    let mut diff = |s: usize| {
+    let mut errors = |s: usize| {
         let key = if s <= occ_lo {
             0
         } else if s > occ_hi {
@@ -428,18 +429,22 @@ fn split_on_axis(
         } else {
             s
         };
-        if let Some(&(_, d)) = memo[..memo_len].iter().find(|m| m.0 == key) {
-            return d;
+        if let Some(&(_, l, r)) = memo[..memo_len].iter().find(|m| m.0 == key) {
+            return (l, r);
         }
         let left = left_of(s);
         let mut right = total;
         right -= left;
-        let d = left.fast_min_error() - right.fast_min_error();
+        let (l, r) = (left.fast_min_error(), right.fast_min_error());
         if memo_len < memo.len() {
-            memo[memo_len] = (key, d);
+            memo[memo_len] = (key, l, r);
             memo_len += 1;
         }
-        d
+        (l, r)
+    };
+    let mut diff = |s: usize| {
+        let (l, r) = errors(s);
+        l - r
     };
     // Position: binary search for the split whose halves have equal E1 (the left
     // half's error grows with s, the right's shrinks). Where a run of positions is
@@ -479,12 +484,13 @@ fn split_on_axis(
     } else {
         s1
     };
+    let (el, er) = errors(s);
     let split = min[axis] + s as u16;
     let ltotal = *left_of(s);
     let mut rtotal = total;
     rtotal -= &ltotal;
     SCRATCH.with(|sc| *sc.borrow_mut() = pre);
-    (split, ltotal, rtotal)
+    (split, ltotal, rtotal, el + er)
 }
 
 fn cell_leaf(

@@ -116,7 +116,7 @@ pub fn contour(parts: &[Part], jobs: &[Job], out: &mut IndexedMesh) {
                     let b = w.bounds(x);
                     (lo.max(b.0[axis]), hi.min(b.1[axis]))
                 });
-                w.edge_proc(r, axis, line, lo, hi);
+                w.edge_proc(r, axis, line, lo, hi, false);
             }
         }
     }
@@ -271,16 +271,26 @@ impl Walker<'_, '_> {
             line[s] = p;
             let dlo = nb.0[d].max(ob.0[d]);
             let dhi = nb.1[d].min(ob.1[d]);
-            self.edge_proc(slots, d, line, dlo, dhi);
+            self.edge_proc(slots, d, line, dlo, dhi, false);
         }
     }
 
     /// The four nodes around the segment `[lo, hi]` along axis `d` through `line`
     /// (its coordinates on the two other axes).
-    fn edge_proc(&mut self, slots: [NodeRef; 4], d: usize, line: [i32; 3], lo: i32, hi: i32) {
+    /// `crossing`: the segment is already known to change sign (the caller
+    /// refined a node without shortening it), so it is not scanned again.
+    fn edge_proc(
+        &mut self,
+        slots: [NodeRef; 4],
+        d: usize,
+        line: [i32; 3],
+        lo: i32,
+        hi: i32,
+        crossing: bool,
+    ) {
         if slots.iter().any(|s| s.is_none())
             || lo >= hi
-            || !self.has_crossing(slots[0].t, d, line, lo, hi)
+            || !(crossing || self.has_crossing(slots[0].t, d, line, lo, hi))
         {
             return;
         }
@@ -312,12 +322,12 @@ impl Walker<'_, '_> {
         };
         if s == d {
             if p > lo && p < hi {
-                self.edge_proc(replace(&|_| lc), d, line, lo, p);
-                self.edge_proc(replace(&|_| hc), d, line, p, hi);
+                self.edge_proc(replace(&|_| lc), d, line, lo, p, false);
+                self.edge_proc(replace(&|_| hc), d, line, p, hi, false);
             } else if p <= lo {
-                self.edge_proc(replace(&|_| hc), d, line, lo, hi);
+                self.edge_proc(replace(&|_| hc), d, line, lo, hi, true);
             } else {
-                self.edge_proc(replace(&|_| lc), d, line, lo, hi);
+                self.edge_proc(replace(&|_| lc), d, line, lo, hi, true);
             }
             return;
         }
@@ -339,7 +349,7 @@ impl Walker<'_, '_> {
         } else {
             replace(&|_| hc)
         };
-        self.edge_proc(next, d, line, lo, hi);
+        self.edge_proc(next, d, line, lo, hi, true);
     }
 
     /// Whether the segment `[lo, hi]` along `d` through `line` changes sign. Most
