@@ -305,7 +305,8 @@ impl Hermite {
         }
 
         // Dense lookup from cell to active index (dropped after the build).
-        let mut lookup = vec![u32::MAX; grid.cell_count() as usize];
+        let mut lookup: Vec<u32> = Vec::with_capacity(grid.cell_count() as usize);
+        lookup.par_extend(rayon::iter::repeat_n(u32::MAX, grid.cell_count() as usize));
         let lin = |c: [u32; 3]| {
             c[0] as usize + n.x as usize * (c[1] as usize + n.y as usize * c[2] as usize)
         };
@@ -426,13 +427,22 @@ impl Hermite {
         }
         drop(lookup);
 
+        // Sign bits, 64 corners per word, in parallel (this was a serial 2 M-corner
+        // loop at res 128 that kept two threads from doubling the speed).
         let mut outside =
             vec![0u64; (corners.x as usize * corners.y as usize * corners.z as usize).div_ceil(64)];
-        for (i, v) in values.iter().enumerate() {
-            if *v >= 0.0 {
-                outside[i / 64] |= 1 << (i % 64);
-            }
-        }
+        outside
+            .par_chunks_mut(256)
+            .zip(values.par_chunks(256 * 64))
+            .for_each(|(words, vals)| {
+                for (word, vals) in words.iter_mut().zip(vals.chunks(64)) {
+                    let mut w = 0u64;
+                    for (k, v) in vals.iter().enumerate() {
+                        w |= ((*v >= 0.0) as u64) << k;
+                    }
+                    *word = w;
+                }
+            });
         Ok(Hermite {
             grid: *grid,
             outside,

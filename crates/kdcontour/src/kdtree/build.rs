@@ -13,6 +13,7 @@ use crate::cell::{edge_corners, edge_index, face_corners, CellTables, NO_COMP};
 use crate::hermite::Hermite;
 use crate::qef::Qef;
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// Nodes above this depth with at least [`PARALLEL_CELLS`] active cells build their
 /// halves with `rayon::join`, each into its own arena that is appended afterwards
@@ -127,7 +128,7 @@ pub fn build_in(
     let tables = CellTables::get();
     let cell_qef: Vec<Qef> = h
         .cells
-        .iter()
+        .par_iter()
         .map(|c| {
             let mut q = Qef::default();
             for k in 0..tables.cell(c.config, c.mask).count as usize {
@@ -169,20 +170,24 @@ pub fn build_in(
     // Pack every component against the box of the node that owns it.
     let mut nodes = arena.nodes;
     nodes.shrink_to_fit();
-    let mut comps: Vec<Comp> = Vec::with_capacity(arena.comps.len());
-    comps.extend(arena.comps.iter().map(|c| Comp {
-        vertex: [0; 3],
-        normal: [0; 3],
-        parent: c.parent,
-    }));
-    for node in &nodes {
-        let lo = Vec3::new(node.min[0] as f32, node.min[1] as f32, node.min[2] as f32);
-        let hi = Vec3::new(node.max[0] as f32, node.max[1] as f32, node.max[2] as f32);
-        for i in node.comp_start..node.comp_start + node.comp_count as u32 {
-            let c = arena.comps[i as usize];
-            comps[i as usize] = Comp::pack(c.vertex, c.normal, lo, hi, c.parent);
-        }
-    }
+    // Components are in node order (each node's follow its subtree's), so packing
+    // node by node in parallel keeps their indices.
+    debug_assert!(nodes
+        .windows(2)
+        .all(|w| w[0].comp_start + w[0].comp_count as u32 <= w[1].comp_start));
+    let comps: Vec<Comp> = nodes
+        .par_iter()
+        .flat_map_iter(|node| {
+            let lo = Vec3::new(node.min[0] as f32, node.min[1] as f32, node.min[2] as f32);
+            let hi = Vec3::new(node.max[0] as f32, node.max[1] as f32, node.max[2] as f32);
+            let comps = &arena.comps;
+            (node.comp_start..node.comp_start + node.comp_count as u32).map(move |i| {
+                let c = comps[i as usize];
+                Comp::pack(c.vertex, c.normal, lo, hi, c.parent)
+            })
+        })
+        .collect();
+    debug_assert_eq!(comps.len(), arena.comps.len());
     KdTree {
         grid: h.grid,
         nodes,
