@@ -80,6 +80,20 @@ fn main() {
                     tree.retained_bytes() as f64 / tree.nodes.len().max(1) as f64,
                     mesh.triangle_count()
                 );
+                // A hash of the mesh: an optimisation that must not change the
+                // output keeps it.
+                let mut hash = 0xcbf2_9ce4_8422_2325u64;
+                let bits = mesh
+                    .positions
+                    .iter()
+                    .chain(&mesh.normals)
+                    .flat_map(|v| v.to_array())
+                    .map(f32::to_bits)
+                    .chain(mesh.indices.iter().copied());
+                for b in bits {
+                    hash = (hash ^ b as u64).wrapping_mul(0x100_0000_01b3);
+                }
+                info += &format!(", mesh hash {hash:016x}");
             }
         })
         .unwrap();
