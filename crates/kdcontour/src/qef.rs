@@ -188,6 +188,13 @@ impl Qef {
             if fixed[1] { 0.0 } else { rhs.y },
             if fixed[2] { 0.0 } else { rhs.z },
         );
+        if fixed == [false; 3] {
+            if let Some((val, v)) = dominant_eigen(sub) {
+                // Both other eigenvalues are below the cutoff: the truncated
+                // pseudo-inverse keeps this direction alone.
+                return start + v * (v.dot(rhs) / val);
+            }
+        }
         let (vals, vecs) = sym_eigen_closed(sub);
         let max = vals.iter().cloned().fold(0.0f64, f64::max);
         let mut x = start;
@@ -243,6 +250,58 @@ impl Qef {
         ) / det;
         m + y
     }
+}
+
+/// The largest eigenvalue and its unit eigenvector of a positive semi-definite
+/// symmetric 3x3 matrix (upper triangle), when the other two eigenvalues are
+/// certainly at most [`SVD_CUTOFF`] times it (a nearly flat patch: the common case
+/// on smooth surfaces); `None` otherwise.
+///
+/// Power iteration by repeated squaring: the largest column of `A⁸` has its other
+/// eigen-directions shrunk by the eigenvalue ratio to the 8th power (below 3e-14
+/// when this succeeds), for a fixed 3 matrix squarings. The Rayleigh quotient
+/// `λ` never exceeds the true largest eigenvalue, so `trace - λ` bounds the sum of
+/// the other two from above and the test below can only err towards `None`, when
+/// the caller falls back to [`sym_eigen_closed`]. About a quarter of its cost.
+fn dominant_eigen(a: [f64; 6]) -> Option<(f64, DVec3)> {
+    let trace = a[0] + a[3] + a[5];
+    if !(trace > 0.0 && trace.is_finite()) {
+        return None;
+    }
+    let mut b = a.map(|x| x / trace);
+    for _ in 0..3 {
+        let [xx, xy, xz, yy, yz, zz] = b;
+        let sq = [
+            xx * xx + xy * xy + xz * xz,
+            xx * xy + xy * yy + xz * yz,
+            xx * xz + xy * yz + xz * zz,
+            xy * xy + yy * yy + yz * yz,
+            xy * xz + yy * yz + yz * zz,
+            xz * xz + yz * yz + zz * zz,
+        ];
+        let t = sq[0] + sq[3] + sq[5];
+        // Not `t <= 1e-200`: a NaN must decline too.
+        if t.is_nan() || t <= 1e-200 {
+            return None;
+        }
+        b = sq.map(|x| x / t);
+    }
+    let col = if b[0] >= b[3] && b[0] >= b[5] {
+        DVec3::new(b[0], b[1], b[2])
+    } else if b[3] >= b[5] {
+        DVec3::new(b[1], b[3], b[4])
+    } else {
+        DVec3::new(b[2], b[4], b[5])
+    };
+    let v = col.normalize_or_zero();
+    let av = DVec3::new(
+        a[0] * v.x + a[1] * v.y + a[2] * v.z,
+        a[1] * v.x + a[3] * v.y + a[4] * v.z,
+        a[2] * v.x + a[4] * v.y + a[5] * v.z,
+    );
+    let val = v.dot(av);
+    // The other two eigenvalues sum to trace - λ1 <= trace - val.
+    (val > 0.0 && trace - val <= SVD_CUTOFF * val * (1.0 - 1e-6)).then_some((val, v))
 }
 
 /// Eigen decomposition of a symmetric 3x3 matrix (upper triangle xx, xy, xz, yy, yz,
@@ -573,6 +632,71 @@ mod tests {
             );
         }
         assert_eq!(sym_eigen_closed([0.0; 6]).0, [0.0; 3]);
+    }
+
+    #[test]
+    fn dominant_eigen_fast_path_agrees_with_the_closed_form() {
+        let mut st = 11u64;
+        let (mut taken, mut declined) = (0, 0);
+        for case in 0..20_000 {
+            // Nearly flat patches (the fast path's case) to creases (not its case).
+            let mut q = Qef::default();
+            let planes = 1 + case % 8;
+            let base = DVec3::new(lcg(&mut st), lcg(&mut st), lcg(&mut st)).normalize();
+            let jitter = [0.0, 1e-6, 1e-3, 0.03, 0.08, 0.15, 0.5, 1.0][case % 8];
+            for _ in 0..planes {
+                let n = (base + jitter * DVec3::new(lcg(&mut st), lcg(&mut st), lcg(&mut st)))
+                    .normalize();
+                q.add_plane(Vec3::ZERO, n.as_vec3());
+            }
+            let a = q.ata;
+            let (vals, vecs) = sym_eigen_closed(a);
+            let k = (0..3).max_by(|&i, &j| vals[i].total_cmp(&vals[j])).unwrap();
+            let max = vals[k];
+            let below = (0..3)
+                .filter(|&i| i != k)
+                .all(|i| vals[i] <= SVD_CUTOFF * max);
+            match dominant_eigen(a) {
+                Some((val, v)) => {
+                    taken += 1;
+                    // Only taken when the truncation keeps one direction.
+                    assert!(below, "{case}: taken with eigenvalues {vals:?}");
+                    assert!((val - max).abs() <= 1e-12 * max, "{case}: {val} {max}");
+                    assert!(
+                        (v.dot(vecs[k]).abs() - 1.0).abs() < 1e-12,
+                        "{case}: {v} {}",
+                        vecs[k]
+                    );
+                }
+                None => {
+                    declined += 1;
+                    // Declines only what it must, or what sits at the cutoff.
+                    let second = (0..3).filter(|&i| i != k).map(|i| vals[i]).sum::<f64>();
+                    assert!(
+                        !below || second > 0.9 * SVD_CUTOFF * max,
+                        "{case}: declined {vals:?}"
+                    );
+                }
+            }
+            // And the solve through it matches the full decomposition's.
+            let rhs_at = DVec3::new(lcg(&mut st), lcg(&mut st), lcg(&mut st));
+            q.atb = q.mul(rhs_at) + DVec3::new(lcg(&mut st), lcg(&mut st), lcg(&mut st)) * 0.01;
+            let fast = q.solve_fixed(DVec3::ZERO, [false; 3]);
+            let rhs = q.atb;
+            let mut full = DVec3::ZERO;
+            for i in 0..3 {
+                if vals[i] > SVD_CUTOFF * max {
+                    full += vecs[i] * (vecs[i].dot(rhs) / vals[i]);
+                }
+            }
+            assert!(
+                (fast - full).length() <= 1e-9 * full.length().max(1.0),
+                "{case}: {fast} {full}"
+            );
+        }
+        assert!(taken > 5_000 && declined > 5_000, "{taken} {declined}");
+        assert_eq!(dominant_eigen([0.0; 6]), None);
+        assert_eq!(dominant_eigen([f64::NAN; 6]), None);
     }
 
     #[test]
