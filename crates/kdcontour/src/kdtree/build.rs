@@ -27,17 +27,14 @@ thread_local! {
 /// See [`PARALLEL_DEPTH`]; below this the join overhead exceeds the work.
 const PARALLEL_CELLS: usize = 1024;
 
-/// A component while building: full precision, normal not yet normalised.
-#[derive(Clone, Copy)]
-struct BuildComp {
-    vertex: Vec3,
-    normal: Vec3,
-    parent: u8,
-}
-
 struct Arena {
     nodes: Vec<KdNode>,
-    comps: Vec<BuildComp>,
+    /// Components, packed against their node's box as they are made (their
+    /// `parent` is filled in when the parent clusters).
+    comps: Vec<Comp>,
+    /// Per component (build time only): the full-precision sum of its crossings'
+    /// normals, which the parent's components sum in turn.
+    normals: Vec<Vec3>,
     /// Per node (build time only): for each of its 12 edges, the cell coordinate
     /// along the edge of its one sign change, or [`NO_EDGE`]. Only meaningful for
     /// clusterable nodes, whose edges have at most one change each.
@@ -52,6 +49,7 @@ impl Arena {
         Arena {
             nodes: Vec::new(),
             comps: Vec::new(),
+            normals: Vec::new(),
             edges: Vec::new(),
         }
     }
@@ -70,6 +68,7 @@ impl Arena {
             n
         }));
         self.comps.extend(other.comps);
+        self.normals.extend(other.normals);
         self.edges.extend(other.edges);
         noff
     }
@@ -149,6 +148,7 @@ pub fn build_in(
     let mut arena = Arena {
         nodes: Vec::with_capacity(h.cells.len() * 13 / 4),
         comps: Vec::with_capacity(h.cells.len() * 13 / 4),
+        normals: Vec::with_capacity(h.cells.len() * 13 / 4),
         edges: Vec::with_capacity(h.cells.len() * 13 / 4),
     };
     let inside = |c: &[u16; 3]| (0..3).all(|a| c[a] >= core_min[a] && c[a] < core_max[a]);
@@ -168,27 +168,10 @@ pub fn build_in(
         )
         .0
     };
-    // Pack every component against the box of the node that owns it.
     let mut nodes = arena.nodes;
     nodes.shrink_to_fit();
-    // Components are in node order (each node's follow its subtree's), so packing
-    // node by node in parallel keeps their indices.
-    debug_assert!(nodes
-        .windows(2)
-        .all(|w| w[0].comp_start + w[0].comp_count as u32 <= w[1].comp_start));
-    let comps: Vec<Comp> = nodes
-        .par_iter()
-        .flat_map_iter(|node| {
-            let lo = Vec3::new(node.min[0] as f32, node.min[1] as f32, node.min[2] as f32);
-            let hi = Vec3::new(node.max[0] as f32, node.max[1] as f32, node.max[2] as f32);
-            let comps = &arena.comps;
-            (node.comp_start..node.comp_start + node.comp_count as u32).map(move |i| {
-                let c = comps[i as usize];
-                Comp::pack(c.vertex, c.normal, lo, hi, c.parent)
-            })
-        })
-        .collect();
-    debug_assert_eq!(comps.len(), arena.comps.len());
+    let mut comps = arena.comps;
+    comps.shrink_to_fit();
     KdTree {
         grid: h.grid,
         nodes,
@@ -309,12 +292,12 @@ fn build_node(
     };
     let popped = l.1 + r.1;
     let base = stack.len() - popped;
-    let own = cluster(ctx, arena, &mut node, &stack[base..], left_ids);
-    stack.truncate(base);
-    let count = own.1;
-    stack.extend_from_slice(&own.0[..count]);
+    let (count, edges) = cluster(ctx, arena, &mut node, stack, base, left_ids);
+    if count == 0 {
+        stack.truncate(base);
+    }
     arena.nodes.push(node);
-    arena.edges.push(own.2);
+    arena.edges.push(edges);
     ((arena.nodes.len() - 1) as u32, count)
 }
 
@@ -366,10 +349,51 @@ fn kd_split(
             occ_hi[a] = occ_hi[a].max(c[a] - min[a]);
         }
     }
+    // Interval sums: one QEF per occupied slab along each axis, then prefix sums.
+    // `pre[k]` sums the slabs `occ_lo..occ_lo + k`. All three axes are summed in
+    // one pass over the cells (each cell's QEF is read once). The sums live in a
+    // per-thread scratch buffer (no allocation per node; the buffer is free again
+    // before the recursion).
+    let mut scratch = SCRATCH.with(|s| std::mem::take(&mut *s.borrow_mut()));
+    let span = [0, 1, 2].map(|a| {
+        if ext[a] > 1 {
+            (occ_hi[a] - occ_lo[a]) as usize + 1
+        } else {
+            0
+        }
+    });
+    let start = [0, span[0] + 1, span[0] + span[1] + 2];
+    scratch.clear();
+    scratch.resize(start[2] + span[2] + 1, Qef::ZERO);
+    let (mut active, mut nactive) = ([0usize; 3], 0);
+    for a in 0..3 {
+        if span[a] > 0 {
+            active[nactive] = a;
+            nactive += 1;
+        }
+    }
+    let active = &active[..nactive];
+    // Offset of each axis' slab 0 in `scratch`, so a cell's slot is `base + c`.
+    let base = [0, 1, 2].map(|a| start[a] as isize + 1 - (min[a] + occ_lo[a]) as isize);
+    for &id in ids {
+        let q = &ctx.cell_qef[id as usize];
+        let c = ctx.h.cells[id as usize].coord;
+        for &a in active {
+            scratch[(base[a] + c[a] as isize) as usize] += q;
+        }
+    }
+    for &a in active {
+        let pre = &mut scratch[start[a]..=start[a] + span[a]];
+        for i in 1..pre.len() {
+            let prev = pre[i - 1];
+            pre[i] += &prev;
+        }
+    }
     let mut best: Option<(f64, usize, u16, Qef, Qef)> = None;
     for &axis in order.iter().filter(|&&a| ext[a] > 1) {
         let occ = (occ_lo[axis] as usize, occ_hi[axis] as usize);
-        let (split, l, r, score) = split_on_axis(ctx, ids, min, ext, axis, occ, &total);
+        let pre = &scratch[start[axis]..=start[axis] + span[axis]];
+        let (split, l, r, score) = split_on_axis(pre, min, ext, axis, occ, &total);
         if best
             .as_ref()
             .is_none_or(|b| score < b.0 * (1.0 - 1e-9) - 1e-12)
@@ -377,16 +401,20 @@ fn kd_split(
             best = Some((score, axis, split, l, r));
         }
     }
+    SCRATCH.with(|sc| *sc.borrow_mut() = scratch);
     let (_, axis, split, l, r) = best.unwrap();
     (axis, split, l, r)
 }
 
 /// The plane along `axis` that gives both halves equal `E1`, the halves' QEFs and
 /// the sum of their `E1`. `occ` is the range of slabs (relative to `min`) that hold
-/// cells.
+/// cells and `pre` the prefix sums of their QEFs.
+///
+/// A split at `s` has the cells of slabs below `s` on its left, so its left QEF is
+/// zero for `s <= occ_lo` and the whole sum for `s > occ_hi` (those positions cost
+/// no QEF work).
 fn split_on_axis(
-    ctx: &Ctx,
-    ids: &[u32],
+    pre: &[Qef],
     min: [u16; 3],
     ext: [u16; 3],
     axis: usize,
@@ -396,25 +424,7 @@ fn split_on_axis(
     let total = *total;
     let len = ext[axis] as usize;
     let (occ_lo, occ_hi) = occ;
-
-    // Interval sums: one QEF per occupied slab along the axis, then prefix sums.
-    // `pre[k]` sums the slabs `occ_lo..occ_lo + k`; a split at `s` has the cells
-    // of slabs below `s` on its left, so its left QEF is zero for `s <= occ_lo` and
-    // the whole sum for `s > occ_hi` (those positions cost no QEF work). Slab sums
-    // live in a per-thread scratch buffer (no allocation per node; the buffer is
-    // free again before the recursion below).
     let span = occ_hi - occ_lo + 1;
-    let mut pre = SCRATCH.with(|s| std::mem::take(&mut *s.borrow_mut()));
-    pre.clear();
-    pre.resize(span + 1, Qef::ZERO);
-    for &id in ids.iter() {
-        let c = (ctx.h.cells[id as usize].coord[axis] - min[axis]) as usize;
-        pre[c - occ_lo + 1] += &ctx.cell_qef[id as usize];
-    }
-    for i in 1..=span {
-        let prev = pre[i - 1];
-        pre[i] += &prev;
-    }
     let left_of = |s: usize| -> &Qef {
         if s <= occ_lo {
             &Qef::ZERO
@@ -458,8 +468,8 @@ fn split_on_axis(
     // the middle of the slabs that hold cells, so neither side is empty unless all
     // cells share one slab (then the split cuts the empty rest off in one step).
     let tol = 1e-9 + 1e-6 * total.fast_min_error();
-    let mut first = |pred: &dyn Fn(f64) -> bool| {
-        let (mut lo, mut hi) = (1usize, len);
+    let first = |diff: &mut dyn FnMut(usize) -> f64, pred: &dyn Fn(f64) -> bool, from: usize| {
+        let (mut lo, mut hi) = (from, len);
         while lo < hi {
             let mid = (lo + hi) / 2;
             if pred(diff(mid)) {
@@ -470,8 +480,14 @@ fn split_on_axis(
         }
         lo
     };
-    let s1 = first(&|d| d >= -tol);
-    let s2 = first(&|d| d > tol) - 1;
+    let s1 = first(&mut diff, &|d| d >= -tol, 1);
+    // The run of equal halves ends at or after s1 (the difference grows with s);
+    // most often it is empty, and s1 already differs by more than the tolerance.
+    let s2 = if s1 < len && diff(s1) > tol {
+        s1 - 1
+    } else {
+        first(&mut diff, &|d| d > tol, s1.max(1)) - 1
+    };
     let occupied_mid = if occ_lo == occ_hi {
         if occ_lo + 1 < len {
             occ_lo + 1
@@ -495,7 +511,6 @@ fn split_on_axis(
     let ltotal = *left_of(s);
     let mut rtotal = total;
     rtotal -= &ltotal;
-    SCRATCH.with(|sc| *sc.borrow_mut() = pre);
     (split, ltotal, rtotal, el + er)
 }
 
@@ -518,11 +533,9 @@ fn cell_leaf(
         let q = ctx.h.patch_qef[p];
         let (vertex, e) = q.solve(lo, hi);
         error = error.max(e);
-        arena.comps.push(BuildComp {
-            vertex,
-            normal: ctx.h.patch_normal[p],
-            parent: 0,
-        });
+        let normal = ctx.h.patch_normal[p];
+        arena.comps.push(Comp::pack(vertex, normal, lo, hi, 0));
+        arena.normals.push(normal);
         stack.push(q);
     }
     let mut edges = [NO_EDGE; 12];
@@ -583,13 +596,20 @@ impl Uf {
 /// four crossings of an ambiguous face (that would let two neighbours share two
 /// segments of one face). A node that fails stays unclusterable; its children are
 /// still leaves of any threshold they meet.
+///
+/// The children's component QEFs are `stack[base..]`. When the node clusters they
+/// are replaced by its own components' QEFs; returns how many there are (0 when
+/// not clusterable, and then the stack is left to the caller) and the node's edge
+/// crossings.
 fn cluster(
     ctx: &Ctx,
     arena: &mut Arena,
     node: &mut KdNode,
-    kid_qefs: &[Qef],
+    stack: &mut Vec<Qef>,
+    base: usize,
     left_ids: &[u32],
-) -> ([Qef; 4], usize, [u16; 12]) {
+) -> (usize, [u16; 12]) {
+    let kid_qefs = &stack[base..];
     let nodes = &arena.nodes;
     let mut kids = [NONE; 2];
     let mut nkids = 0;
@@ -776,7 +796,7 @@ fn cluster(
             let ci = (kn.comp_start + j as u32) as usize;
             let cls = class[(offset_of(k) + j) as usize];
             qefs[cls as usize] += &kid_qefs[(offset_of(k) + j) as usize];
-            normals[cls as usize] += arena.comps[ci].normal;
+            normals[cls as usize] += arena.normals[ci];
             arena.comps[ci].parent = cls;
         }
     }
@@ -785,19 +805,18 @@ fn cluster(
     for (c, q) in qefs[..ncomp as usize].iter().enumerate() {
         let (vertex, e) = q.solve(lo, hi);
         error = error.max(e as f32);
-        arena.comps.push(BuildComp {
-            vertex,
-            normal: normals[c],
-            parent: 0,
-        });
+        arena.comps.push(Comp::pack(vertex, normals[c], lo, hi, 0));
+        arena.normals.push(normals[c]);
     }
     node.comp_count = ncomp;
     node.clusterable = true;
     node.error = error;
-    (qefs, ncomp as usize, edges)
+    stack.truncate(base);
+    stack.extend_from_slice(&qefs[..ncomp as usize]);
+    (ncomp as usize, edges)
 }
 
-const NOT_CLUSTERABLE: ([Qef; 4], usize, [u16; 12]) = ([Qef::ZERO; 4], 0, [NO_EDGE; 12]);
+const NOT_CLUSTERABLE: (usize, [u16; 12]) = (0, [NO_EDGE; 12]);
 
 fn edge_between(c0: usize, c1: usize) -> usize {
     let a = (c0 ^ c1).trailing_zeros() as usize;

@@ -68,9 +68,12 @@ impl Comp {
             .clamp(Vec3::ZERO, Vec3::ONE)
             * 65535.0;
         let n = normal.normalize_or_zero() * 32767.0;
+        // Rounding by adding one half away from zero and truncating: `f32::round`
+        // is a libm call on the baseline x86-64 target, and this is on the build's
+        // hot path (once per component).
         Comp {
-            vertex: t.round().to_array().map(|x| x as u16),
-            normal: n.round().to_array().map(|x| x as i16),
+            vertex: t.to_array().map(|x| (x + 0.5) as u16),
+            normal: n.to_array().map(|x| (x + 0.5f32.copysign(x)) as i16),
             parent,
         }
     }
