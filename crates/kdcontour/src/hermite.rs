@@ -116,7 +116,19 @@ pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Vec
         }
         Some(l) => sample_skipping(field, grid, l, &mut values),
     }
-    if let Some(i) = values.par_iter().position_first(|v| !v.is_finite()) {
+    // Blocks scanned without an early exit vectorise; `position_first` per value
+    // did not, and cost a quarter of sampling a CSG terrain.
+    const SCAN: usize = 4096;
+    let bad = values
+        .par_chunks(SCAN)
+        .position_first(|c| c.iter().fold(false, |bad, v| bad | !v.is_finite()));
+    if let Some(i) = bad.and_then(|k| {
+        let start = k * SCAN;
+        values[start..]
+            .iter()
+            .position(|v| !v.is_finite())
+            .map(|j| start + j)
+    }) {
         let z = i / slab;
         let y = (i % slab) / c.x as usize;
         let x = i % c.x as usize;
