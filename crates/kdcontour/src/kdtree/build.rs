@@ -2,9 +2,10 @@
 //! (section 5), in one post-order pass.
 //!
 //! Interval summation: instead of the paper's mipmap, each node carries the list of
-//! its active cells and sums their QEFs into one slab per plane position along the
-//! chosen axis; prefix sums of the slabs give both halves of every candidate split in
-//! O(1). The cost is O(active cells) per tree level, memory is proportional to the
+//! its active cells and sums their QEFs into one slab per plane position along each
+//! axis (one pass for all three); prefix sums of the slabs give both halves of every
+//! candidate split in O(1). Flat nodes (zero `E1`) skip the search, whose outcome is
+//! known for them. The cost is O(active cells) per tree level, memory is proportional to the
 //! surface rather than the volume (a 3-D summed-area table at res 128 would hold
 //! 2.1 M QEFs, 340 MB), and each child's total QEF comes for free from the prefix.
 
@@ -24,6 +25,10 @@ const PARALLEL_DEPTH: u32 = 4;
 thread_local! {
     static SCRATCH: std::cell::RefCell<Vec<Qef>> = const { std::cell::RefCell::new(Vec::new()) };
 }
+/// `E1` (squared grid units) at or below which a node counts as flat in the split
+/// search: far below its tie tolerance (1e-9), so a flat node splits where the full
+/// search would.
+const FLAT_E1: f64 = 1e-12;
 /// See [`PARALLEL_DEPTH`]; below this the join overhead exceeds the work.
 const PARALLEL_CELLS: usize = 1024;
 
@@ -349,6 +354,31 @@ fn kd_split(
             occ_hi[a] = occ_hi[a].max(c[a] - min[a]);
         }
     }
+    // A flat node (every plane the same one: `E1` of the whole is zero to
+    // rounding) leaves zero error on both sides of every split, so the search below
+    // would find all positions equal and every axis scoring zero, and take the
+    // first axis in order at the middle of its occupied slabs. Take it without the
+    // search: one sum over the left cells instead of three slab passes and the
+    // probes. On `disk_pole` and the boxed terrain, a third of the summation work
+    // is in such nodes (box faces, the disk).
+    if total.fast_min_error() <= FLAT_E1 {
+        let axis = *order
+            .iter()
+            .find(|&&a| ext[a] > 1)
+            .expect("a node wider than one cell");
+        let len = ext[axis] as usize;
+        let s = occupied_mid(occ_lo[axis] as usize, occ_hi[axis] as usize, len).clamp(1, len - 1);
+        let split = min[axis] + s as u16;
+        let mut ltotal = Qef::ZERO;
+        for &id in ids {
+            if ctx.h.cells[id as usize].coord[axis] < split {
+                ltotal += &ctx.cell_qef[id as usize];
+            }
+        }
+        let mut rtotal = total;
+        rtotal -= &ltotal;
+        return (axis, split, ltotal, rtotal);
+    }
     // Interval sums: one QEF per occupied slab along each axis, then prefix sums.
     // `pre[k]` sums the slabs `occ_lo..occ_lo + k`. All three axes are summed in
     // one pass over the cells (each cell's QEF is read once). The sums live in a
@@ -404,6 +434,21 @@ fn kd_split(
     SCRATCH.with(|sc| *sc.borrow_mut() = scratch);
     let (_, axis, split, l, r) = best.unwrap();
     (axis, split, l, r)
+}
+
+/// The middle of the slabs `occ_lo..=occ_hi` that hold cells, as a split position
+/// in `1..len` relative to the node; when all cells share one slab, the plane just
+/// above it (the split cuts the empty rest off in one step).
+fn occupied_mid(occ_lo: usize, occ_hi: usize, len: usize) -> usize {
+    if occ_lo == occ_hi {
+        if occ_lo + 1 < len {
+            occ_lo + 1
+        } else {
+            occ_lo
+        }
+    } else {
+        (occ_lo + occ_hi + 1).div_ceil(2)
+    }
 }
 
 /// The plane along `axis` that gives both halves equal `E1`, the halves' QEFs and
@@ -488,15 +533,7 @@ fn split_on_axis(
     } else {
         first(&mut diff, &|d| d > tol, s1.max(1)) - 1
     };
-    let occupied_mid = if occ_lo == occ_hi {
-        if occ_lo + 1 < len {
-            occ_lo + 1
-        } else {
-            occ_lo
-        }
-    } else {
-        (occ_lo + occ_hi + 1).div_ceil(2)
-    };
+    let occupied_mid = occupied_mid(occ_lo, occ_hi, len);
     let s = if s1 <= s2 && s1 < len {
         occupied_mid.clamp(s1, s2.min(len - 1)).max(1)
     } else if s1 >= len {
