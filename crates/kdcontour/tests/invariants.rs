@@ -88,6 +88,7 @@ fn negative_threshold_is_uniform_dmc() {
 #[test]
 fn reextraction_equals_fresh_build_and_threads_agree() {
     // Large enough (res 72) that the build splits into parallel subtrees.
+    let mut parallel_walks = 0;
     for name in ["thin_plates", "gyroid", "caves", "csg_mix"] {
         let scene = scenes::scene(name).unwrap();
         let grid = Grid::cube(1.0, 72);
@@ -113,11 +114,18 @@ fn reextraction_equals_fresh_build_and_threads_agree() {
                 reused, fresh,
                 "{name} threshold {e}: re-extraction differs from a fresh build"
             );
+            // Extraction itself on 4 threads: trees of 16,384 components or more
+            // are walked in parallel pieces and merged.
             assert_eq!(
-                tree_many.mesh(e),
+                many.run(|| tree_many.mesh(e)).unwrap(),
                 fresh,
                 "{name} threshold {e}: 4 threads differ from 1"
             );
         }
+        parallel_walks += (tree.comps.len() >= 16_384) as usize;
     }
+    assert!(
+        parallel_walks >= 2,
+        "the parallel extraction was not exercised"
+    );
 }

@@ -78,9 +78,22 @@ impl NodeRef {
 
 struct Walker<'a, 'b> {
     parts: &'b [Part<'a>],
+    /// Per part: the vertex made for each component, or `u32::MAX`.
     vertex_of: Vec<Vec<u32>>,
+    /// Per part: the component that `vertex_of[t][0]` stands for (a piece of a
+    /// parallel extraction maps only its subtree's components).
+    vertex_base: Vec<usize>,
+    /// The component behind each vertex made, in order (merging pieces reads it).
+    sources: Vec<u32>,
     mesh: &'b mut IndexedMesh,
 }
+
+/// Trees with at least this many components are extracted in parallel when the
+/// pool has more than one thread (below it a piece's set-up outweighs its walk).
+const PARALLEL_COMPS: usize = 16_384;
+/// Levels of the tree split into parallel pieces: up to 16 subtree walks and the 15
+/// face walks between them.
+const PARALLEL_LEVELS: u32 = 4;
 
 /// Contours `jobs` over `parts` into `out` (appended; vertices are shared between
 /// the jobs of one call).
@@ -91,6 +104,8 @@ pub fn contour(parts: &[Part], jobs: &[Job], out: &mut IndexedMesh) {
             .iter()
             .map(|p| vec![u32::MAX; p.tree.comps.len()])
             .collect(),
+        vertex_base: vec![0; parts.len()],
+        sources: Vec::new(),
         mesh: out,
     };
     for job in jobs {
@@ -122,9 +137,114 @@ pub fn contour(parts: &[Part], jobs: &[Job], out: &mut IndexedMesh) {
     }
 }
 
+/// The mesh of one piece of a parallel extraction, with local vertex indices.
+struct Piece {
+    mesh: IndexedMesh,
+    /// The component behind each of its vertices.
+    sources: Vec<u32>,
+}
+
+/// The components of node `n`'s subtree: one contiguous range, since the build
+/// appends a subtree's components in post-order (its first cell's first, the
+/// node's own last).
+fn comp_range(tree: &KdTree, n: u32) -> std::ops::Range<usize> {
+    let mut m = n;
+    loop {
+        let node = &tree.nodes[m as usize];
+        if node.axis == super::CELL {
+            break;
+        }
+        m = if node.children[0] != NONE {
+            node.children[0]
+        } else {
+            node.children[1]
+        };
+    }
+    let last = &tree.nodes[n as usize];
+    tree.nodes[m as usize].comp_start as usize..(last.comp_start + last.comp_count as u32) as usize
+}
+
+/// Walks with `f` on a walker of its own that maps only the components `range`.
+fn walk_piece(parts: &[Part], range: std::ops::Range<usize>, f: impl FnOnce(&mut Walker)) -> Piece {
+    let mut mesh = IndexedMesh::default();
+    let mut w = Walker {
+        parts,
+        vertex_of: vec![vec![u32::MAX; range.len()]],
+        vertex_base: vec![range.start],
+        sources: Vec::new(),
+        mesh: &mut mesh,
+    };
+    f(&mut w);
+    let sources = std::mem::take(&mut w.sources);
+    Piece { mesh, sources }
+}
+
+/// `cell_proc` of node `n` of the single part, as pieces in the order the serial
+/// walk would make them: the low child's, the high child's, then the face between
+/// them. The three run in parallel for `levels` levels.
+fn cell_pieces(parts: &[Part], n: u32, levels: u32, out: &mut Vec<Piece>) {
+    let tree = parts[0].tree;
+    let r = NodeRef { t: 0, n };
+    if levels == 0 {
+        out.push(walk_piece(parts, comp_range(tree, n), |w| w.cell_proc(r)));
+        return;
+    }
+    if tree.is_leaf(n, parts[0].threshold) {
+        return;
+    }
+    let node = &tree.nodes[n as usize];
+    let [a, b] = node.children;
+    let axis = node.axis as usize;
+    let sub = |c: u32| {
+        let mut v = Vec::new();
+        if c != NONE {
+            cell_pieces(parts, c, levels - 1, &mut v);
+        }
+        v
+    };
+    let ((pa, pb), face) = rayon::join(
+        || rayon::join(|| sub(a), || sub(b)),
+        || {
+            (a != NONE && b != NONE).then(|| {
+                let range = comp_range(tree, a).start..comp_range(tree, b).end;
+                let (ra, rb) = (NodeRef { t: 0, n: a }, NodeRef { t: 0, n: b });
+                walk_piece(parts, range, |w| w.face_proc([ra, rb], axis))
+            })
+        },
+    );
+    out.extend(pa);
+    out.extend(pb);
+    out.extend(face);
+}
+
+/// Appends the pieces to `out` in order, giving each component one vertex, numbered
+/// by first use: the same mesh, index for index, as one serial walk.
+fn merge(pieces: Vec<Piece>, comps: usize, out: &mut IndexedMesh) {
+    let mut vertex_of = vec![u32::MAX; comps];
+    let mut remap = Vec::new();
+    for p in pieces {
+        remap.clear();
+        for (k, &c) in p.sources.iter().enumerate() {
+            let slot = &mut vertex_of[c as usize];
+            if *slot == u32::MAX {
+                *slot = out.positions.len() as u32;
+                out.positions.push(p.mesh.positions[k]);
+                out.normals.push(p.mesh.normals[k]);
+            }
+            remap.push(*slot);
+        }
+        out.indices
+            .extend(p.mesh.indices.iter().map(|&i| remap[i as usize]));
+    }
+}
+
 impl KdTree {
     /// Contours the tree at `threshold` into `out` (cleared first, capacity kept).
     /// A negative threshold gives uniform Dual Marching Cubes.
+    ///
+    /// Large trees are walked in parallel on the current rayon pool (subtrees and
+    /// the faces between them as separate pieces, merged in the serial walk's
+    /// order), so the mesh is the same on any number of threads.
     pub fn extract(&self, threshold: f32, out: &mut IndexedMesh) {
         out.reset();
         let parts = [Part {
@@ -132,6 +252,15 @@ impl KdTree {
             offset: IVec3::ZERO,
             threshold,
         }];
+        if rayon::current_num_threads() > 1
+            && self.comps.len() >= PARALLEL_COMPS
+            && self.root != NONE
+        {
+            let mut pieces = Vec::new();
+            cell_pieces(&parts, self.root, PARALLEL_LEVELS, &mut pieces);
+            merge(pieces, self.comps.len(), out);
+            return;
+        }
         contour(&parts, &[Job::Cell(0)], out);
     }
 
@@ -406,8 +535,9 @@ impl Walker<'_, '_> {
         let parts = self.parts;
         let tree = parts[leaf.t as usize].tree;
         let ci = (tree.nodes[leaf.n as usize].comp_start + local as u32) as usize;
-        let slot = &mut self.vertex_of[leaf.t as usize][ci];
+        let slot = &mut self.vertex_of[leaf.t as usize][ci - self.vertex_base[leaf.t as usize]];
         if *slot == u32::MAX {
+            self.sources.push(ci as u32);
             let c = tree.comps[ci];
             let (lo, hi) = tree.node_box(leaf.n);
             *slot = self.mesh.positions.len() as u32;
