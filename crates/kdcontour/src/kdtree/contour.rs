@@ -484,12 +484,21 @@ impl Walker<'_, '_> {
     /// Whether the segment `[lo, hi]` along `d` through `line` changes sign. Most
     /// segments the walk meets do not, and they need no refinement at all.
     fn has_crossing(&self, t: u32, d: usize, line: [i32; 3], lo: i32, hi: i32) -> bool {
+        // Corner by corner along d: one index step (the axis' stride) per corner.
+        let p = &self.parts[t as usize];
+        let o = p.offset.to_array();
+        let (grid, bits) = (&p.tree.grid, &p.tree.outside);
         let mut g = line;
         g[d] = lo;
-        let first = self.outside(t, g);
-        for x in lo + 1..=hi {
-            g[d] = x;
-            if self.outside(t, g) != first {
+        let g = [0, 1, 2].map(|a| (g[a] - o[a]) as u32);
+        let c = grid.corners();
+        let stride = [1, c.x as usize, c.x as usize * c.y as usize][d];
+        let mut i = grid.corner_index(g[0], g[1], g[2]);
+        let bit = |i: usize| (bits[i / 64] >> (i % 64)) & 1;
+        let first = bit(i);
+        for _ in lo..hi {
+            i += stride;
+            if bit(i) != first {
                 return true;
             }
         }
