@@ -9,8 +9,11 @@
 //! build; their time is sample + build + contour. fidget meshes its own expression
 //! of the scene (it cannot take a sampled grid), at the octree depth of `res`, and
 //! emits 4 triangles per crossing edge where the others emit 2, so its count is
-//! halved. Max error is |f| / |grad f| at vertices and triangle centroids, in
-//! cells, on the scene's field (`kdcontour::validate`).
+//! halved. Where fidget runs, `kdtree-at-fidget-error` is ours at the coarsest
+//! threshold (powers of two around `--threshold`) whose mesh is within fidget's max
+//! error: the fewer-triangles-at-the-same-error comparison. Max error is
+//! |f| / |grad f| at vertices and triangle centroids, in cells, on the scene's field
+//! (`kdcontour::validate`).
 //!
 //! ```text
 //! cargo run --release -p kdcontour-bench -- [--json] [--scenes sphere,disk_pole,terrain] [--res 32,64,128]
