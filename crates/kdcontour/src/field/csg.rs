@@ -729,18 +729,7 @@ impl Node {
                 a.sample(grid, z_range.clone(), out);
                 combine(out, &mut std::iter::once(&**b), |a, b| a.max(-b));
             }
-            _ => {
-                let c = grid.corners();
-                let mut i = 0;
-                for z in z_range {
-                    for y in 0..c.y {
-                        for x in 0..c.x {
-                            out[i] = self.value(grid.corner_pos(glam::UVec3::new(x, y, z)));
-                            i += 1;
-                        }
-                    }
-                }
-            }
+            _ => super::sample_each(grid, z_range, out, |p| self.value(p)),
         }
     }
 }

@@ -42,14 +42,25 @@ pub trait Field: Send + Sync {
     /// `out.len()` must equal `grid.corner_count()`. Fields with a faster batched
     /// evaluator override this; the default calls [`Field::value`] per corner.
     fn sample_grid(&self, grid: &Grid, z_range: std::ops::Range<u32>, out: &mut [f32]) {
-        let c = grid.corners();
-        let mut i = 0;
-        for z in z_range {
-            for y in 0..c.y {
-                for x in 0..c.x {
-                    out[i] = self.value(grid.corner_pos(glam::UVec3::new(x, y, z)));
-                    i += 1;
-                }
+        sample_each(grid, z_range, out, |p| self.value(p));
+    }
+}
+
+/// Fills `out` with `value` at every corner of `grid` with z in `z_range` (x
+/// fastest, then y, then z): the per-corner [`Field::sample_grid`].
+pub fn sample_each(
+    grid: &Grid,
+    z_range: std::ops::Range<u32>,
+    out: &mut [f32],
+    value: impl Fn(Vec3) -> f32,
+) {
+    let c = grid.corners();
+    let mut i = 0;
+    for z in z_range {
+        for y in 0..c.y {
+            for x in 0..c.x {
+                out[i] = value(grid.corner_pos(glam::UVec3::new(x, y, z)));
+                i += 1;
             }
         }
     }
