@@ -4,10 +4,11 @@
 //! Interval summation: instead of the paper's mipmap, each node carries the list of
 //! its active cells and sums their QEFs into one slab per plane position along each
 //! axis (one pass for all three); prefix sums of the slabs give both halves of every
-//! candidate split in O(1). Flat nodes (zero `E1`) skip the search, whose outcome is
-//! known for them. The cost is O(active cells) per tree level, memory is proportional to the
-//! surface rather than the volume (a 3-D summed-area table at res 128 would hold
-//! 2.1 M QEFs, 340 MB), and each child's total QEF comes for free from the prefix.
+//! candidate split in O(1). Flat nodes (zero `E1`) skip the search, whose outcome
+//! is known for them. The cost is O(active cells) per tree level, memory is
+//! proportional to the surface rather than the volume (a 3-D summed-area table at
+//! res 128 would hold 2.1 M QEFs, 340 MB), and each child's total QEF comes for free
+//! from the prefix.
 
 use super::{Comp, KdNode, KdTree, CELL, NONE};
 use crate::cell::{edge_corners, edge_index, face_corners, CellTables, NO_COMP};
