@@ -71,20 +71,7 @@ fn stages(c: &mut Criterion, scene: &str, res: u32, threshold: f32) {
 /// A streaming terrain chunk: 32³ cells of 1 m over an fBm height field (batched
 /// column sampling, no closing box), as the Bevy terrain meshes it.
 fn terrain_chunk(c: &mut Criterion) {
-    use kdcontour::field::terrain::{Heightfield, HeightfieldParams};
-    let field = Heightfield::new(HeightfieldParams {
-        seed: 3,
-        base: 0.0,
-        amplitude: 10.0,
-        frequency: 0.015,
-        octaves: 5,
-    });
-    let grid = Grid {
-        origin: glam::Vec3::new(0.0, -16.0, 0.0),
-        cell_size: 1.0,
-        cells: glam::UVec3::splat(32),
-        offset: glam::IVec3::ZERO,
-    };
+    let (field, grid) = kdcontour::scenes::terrain_chunk(32);
     let settings = Settings::default();
     let mut g = c.benchmark_group("terrain_chunk_32");
     g.sample_size(20)

@@ -6,7 +6,6 @@
 //! `cargo run --release -p kdcontour --example stages -- disk_pole 128 [reps] [threads]`
 //! `cargo run --release -p kdcontour --example stages -- chunk 32 50`
 
-use kdcontour::field::terrain::{Heightfield, HeightfieldParams};
 use kdcontour::{hermite, kdtree, scenes, Field, Grid, IndexedMesh, Settings};
 use std::time::Instant;
 
@@ -27,19 +26,7 @@ fn main() {
         .map(|s| s.parse().expect("threads is a number"))
         .unwrap_or(1);
     let (field, grid): (Box<dyn Field>, Grid) = if name == "chunk" {
-        let field = Heightfield::new(HeightfieldParams {
-            seed: 3,
-            base: 0.0,
-            amplitude: 10.0,
-            frequency: 0.015,
-            octaves: 5,
-        });
-        let grid = Grid {
-            origin: glam::Vec3::new(0.0, -(res as f32) / 2.0, 0.0),
-            cell_size: 1.0,
-            cells: glam::UVec3::splat(res),
-            offset: glam::IVec3::ZERO,
-        };
+        let (field, grid) = scenes::terrain_chunk(res);
         (Box::new(field), grid)
     } else {
         let scene = scenes::scene(&name).unwrap_or_else(|e| panic!("{e}"));

@@ -164,3 +164,25 @@ pub fn scene(name: &str) -> Result<Scene, Error> {
         closed: true,
     })
 }
+
+/// The streaming-terrain chunk that benchmarks and tests measure: `res`³ cells of
+/// 1 m over a 5-octave fBm height field (seed 3, amplitude 10 m, frequency 0.015),
+/// the grid starting at x = z = 0 and centred on y = 0, as the Bevy terrain example
+/// meshes one chunk (without its halo).
+pub fn terrain_chunk(res: u32) -> (crate::field::terrain::Heightfield, crate::Grid) {
+    use crate::field::terrain::{Heightfield, HeightfieldParams};
+    let field = Heightfield::new(HeightfieldParams {
+        seed: 3,
+        base: 0.0,
+        amplitude: 10.0,
+        frequency: 0.015,
+        octaves: 5,
+    });
+    let grid = crate::Grid {
+        origin: Vec3::new(0.0, -(res as f32) / 2.0, 0.0),
+        cell_size: 1.0,
+        cells: glam::UVec3::splat(res),
+        offset: glam::IVec3::ZERO,
+    };
+    (field, grid)
+}

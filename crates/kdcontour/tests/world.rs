@@ -372,18 +372,11 @@ fn chunks_outside_the_world_are_errors() {
 fn a_terrain_chunk_retains_at_most_256_kib() {
     // The memory target: a 32^3 chunk of the noise height field (the bench's
     // terrain chunk), nodes + packed components + sign bits.
-    use kdcontour::field::terrain::{Heightfield, HeightfieldParams};
-    let field = Heightfield::new(HeightfieldParams {
-        seed: 3,
-        base: 0.0,
-        amplitude: 10.0,
-        frequency: 0.015,
-        octaves: 5,
-    });
+    let (field, grid) = kdcontour::scenes::terrain_chunk(32);
     let mut w = ChunkWorld::new(
-        Vec3::new(0.0, -16.0, 0.0),
-        1.0,
-        32,
+        grid.origin,
+        grid.cell_size,
+        grid.cells.x,
         UVec3::ONE,
         0.01,
         Settings::default(),
