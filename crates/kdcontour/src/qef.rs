@@ -395,38 +395,37 @@ fn eigenvector1(a: [f64; 6], v0: DVec3, val: f64) -> DVec3 {
         )
     };
     let (au, av) = (mul(u), mul(v));
-    let mut m00 = u.dot(au) - val;
-    let mut m01 = u.dot(av);
-    let mut m11 = v.dot(av) - val;
+    let m00 = u.dot(au) - val;
+    let m01 = u.dot(av);
+    let m11 = v.dot(av) - val;
     let (abs00, abs01, abs11) = (m00.abs(), m01.abs(), m11.abs());
+    // The null direction of the 2x2 block, from its row of larger magnitude.
     if abs00 >= abs11 {
         if abs00.max(abs01) > 0.0 {
-            if abs00 >= abs01 {
-                m01 /= m00;
-                m00 = 1.0 / (1.0 + m01 * m01).sqrt();
-                m01 *= m00;
-            } else {
-                m00 /= m01;
-                m01 = 1.0 / (1.0 + m00 * m00).sqrt();
-                m00 *= m01;
-            }
+            let (m00, m01) = unit_pair(m00, m01);
             u * m01 - v * m00
         } else {
             u
         }
     } else if abs11.max(abs01) > 0.0 {
-        if abs11 >= abs01 {
-            m01 /= m11;
-            m11 = 1.0 / (1.0 + m01 * m01).sqrt();
-            m01 *= m11;
-        } else {
-            m11 /= m01;
-            m01 = 1.0 / (1.0 + m11 * m11).sqrt();
-            m11 *= m01;
-        }
+        let (m11, m01) = unit_pair(m11, m01);
         u * m11 - v * m01
     } else {
         u
+    }
+}
+
+/// `(a, b)` scaled to unit length without overflow: divided through by the larger
+/// magnitude first (one of them must be non-zero).
+fn unit_pair(a: f64, b: f64) -> (f64, f64) {
+    if a.abs() >= b.abs() {
+        let r = b / a;
+        let s = 1.0 / (1.0 + r * r).sqrt();
+        (s, r * s)
+    } else {
+        let r = a / b;
+        let s = 1.0 / (1.0 + r * r).sqrt();
+        (r * s, s)
     }
 }
 
