@@ -4,8 +4,8 @@
 //! k-d tree's packed form ([`Comp::pack`]), so both give bitwise the same positions.
 
 use crate::cell::{edge_index, CellTables};
+use crate::comp::Comp;
 use crate::hermite::Hermite;
-use crate::kdtree::Comp;
 use crate::mesh::IndexedMesh;
 use glam::Vec3;
 

@@ -9,7 +9,7 @@ use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::grid::Grid;
 use crate::qef::Qef;
-use crate::Settings;
+use crate::settings::Settings;
 use glam::{UVec3, Vec3};
 use rayon::prelude::*;
 
@@ -223,6 +223,14 @@ struct Crossing {
 }
 
 impl Hermite {
+    /// Samples `field` on `grid` ([`sample`]) and builds its Hermite data
+    /// ([`Hermite::new`]); the samples are dropped before returning. Runs on the
+    /// calling thread pool (wrap in [`Settings::run`] to honour `settings.threads`).
+    pub fn from_field(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Self> {
+        let values = sample(field, grid, settings)?;
+        Hermite::new(field, grid, &values, settings)
+    }
+
     /// Builds Hermite data from samples of `field` on `grid` (from [`sample`]).
     pub fn new(
         field: &dyn Field,

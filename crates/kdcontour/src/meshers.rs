@@ -4,10 +4,10 @@
 use crate::error::Result;
 use crate::field::Field;
 use crate::grid::Grid;
-use crate::hermite::{self, Hermite};
-use crate::kdtree::{self, Partition};
+use crate::hermite::Hermite;
+use crate::kdtree;
 use crate::mesh::IndexedMesh;
-use crate::Settings;
+use crate::settings::{Partition, Settings};
 use std::time::Instant;
 
 /// A meshing method.
@@ -75,12 +75,11 @@ pub struct Sampled {
     pub sample_ms: f64,
 }
 
-/// Samples `field` on `grid` (see [`hermite::sample`]).
+/// Samples `field` on `grid` (see [`Hermite::from_field`]).
 pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Sampled> {
     settings.run(|| {
         let t0 = Instant::now();
-        let values = hermite::sample(field, grid, settings)?;
-        let hermite = Hermite::new(field, grid, &values, settings)?;
+        let hermite = Hermite::from_field(field, grid, settings)?;
         Ok(Sampled {
             hermite,
             sample_ms: t0.elapsed().as_secs_f64() * 1e3,

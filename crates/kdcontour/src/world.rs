@@ -26,10 +26,10 @@
 use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::grid::Grid;
-use crate::hermite::{self, Hermite};
+use crate::hermite::Hermite;
 use crate::kdtree::{self, contour, Job, KdTree, Part};
 use crate::mesh::IndexedMesh;
-use crate::Settings;
+use crate::settings::Settings;
 use glam::{IVec3, UVec3, Vec3};
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -552,8 +552,7 @@ fn build_chunk_tree(
     settings: &Settings,
 ) -> Result<KdTree> {
     settings.run(|| {
-        let values = hermite::sample(field, grid, settings)?;
-        let h = Hermite::new(field, grid, &values, settings)?;
+        let h = Hermite::from_field(field, grid, settings)?;
         let r = res as u16;
         Ok(kdtree::build_in(
             &h,

@@ -75,8 +75,7 @@ fn negative_threshold_is_uniform_dmc() {
         let scene = scenes::scene(name).unwrap();
         let grid = Grid::cube(1.0, 40);
         let s = Settings::default();
-        let values = hermite::sample(&*scene.field, &grid, &s).unwrap();
-        let h = hermite::Hermite::new(&*scene.field, &grid, &values, &s).unwrap();
+        let h = hermite::Hermite::from_field(&*scene.field, &grid, &s).unwrap();
         let oracle = dmc::uniform_dmc(&h);
         let tree = KdTree::build(&*scene.field, &grid, &s).unwrap();
         let m = tree.mesh(-1.0);

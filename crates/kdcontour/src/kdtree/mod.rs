@@ -1,13 +1,34 @@
 //! The discrete k-d tree (sections 4 to 6 of the paper): built once from Hermite
 //! data, retained, and contoured at any error threshold without re-sampling.
+//!
+//! Which file holds which algorithm:
+//! - `mod.rs` (here): the retained tree ([`KdTree`], [`KdNode`]) and its queries.
+//! - `build.rs`: the build driver, the top-down recursion of section 4.3 over
+//!   per-task node arenas (parallel near the root, the same tree on any thread
+//!   count), cell leaves, and [`KdTree::build`] (sample -> Hermite -> tree);
+//!   entry points [`build`], [`build_with`], [`build_in`].
+//! - `split.rs`: the split search of section 4.3, the axis and the plane of
+//!   equal-`E1` halves by binary search over probes of slab prefix sums, with the
+//!   shortcut for flat nodes.
+//! - `cluster.rs`: the bottom-up topology-preserving clustering of section 5, run on
+//!   each node as the recursion returns.
+//! - `contour.rs`: contouring at a threshold (section 6: `cell_proc`, `face_proc`,
+//!   `edge_proc`).
+//!
+//! [`Comp`] (the packed dual vertex, [`crate::comp`]) and [`Partition`] (a setting,
+//! [`crate::settings`]) live below this module and are re-exported here.
 
 mod build;
+mod cluster;
 mod contour;
+mod split;
 
 use crate::grid::Grid;
 use glam::Vec3;
 
-pub use build::{build, build_in, build_with, Partition};
+pub use crate::comp::Comp;
+pub use crate::settings::Partition;
+pub use build::{build, build_in, build_with};
 pub use contour::{contour, Job, Part};
 
 /// Marks a missing child (an empty box pruned during construction).
@@ -44,61 +65,6 @@ pub struct KdNode {
     /// Largest QEF residual of any component at or below this node (squared grid
     /// units); infinite when not clusterable. Never smaller than a child's.
     pub error: f32,
-}
-
-/// A surface component of a clusterable node: one dual vertex, packed in 14 bytes.
-///
-/// The vertex (the QEF minimiser, always inside its node's box) is stored as 16-bit
-/// fractions of that box: 1/65535 of a cell for cell leaves, and never coarser than
-/// 1/65535 of the node's extent. The unit normal is stored as 16-bit snorm.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Comp {
-    /// Vertex position as fractions (0..=65535) of the node's box along x, y, z.
-    pub vertex: [u16; 3],
-    /// Unit normal in snorm16: the normalised sum of its crossings' normals.
-    pub normal: [i16; 3],
-    /// Index of the component of the parent node this one merges into.
-    pub parent: u8,
-}
-
-impl Comp {
-    /// Packs a vertex (grid units, inside `[lo, hi]`) and a normal (any length).
-    pub fn pack(vertex: Vec3, normal: Vec3, lo: Vec3, hi: Vec3, parent: u8) -> Comp {
-        let t = ((vertex - lo) / (hi - lo).max(Vec3::splat(f32::MIN_POSITIVE)))
-            .clamp(Vec3::ZERO, Vec3::ONE)
-            * 65535.0;
-        let n = normal.normalize_or_zero() * 32767.0;
-        // Rounding by adding one half away from zero and truncating: `f32::round`
-        // is a libm call on the baseline x86-64 target, and this is on the build's
-        // hot path (once per component).
-        Comp {
-            vertex: t.to_array().map(|x| (x + 0.5) as u16),
-            normal: n.to_array().map(|x| (x + 0.5f32.copysign(x)) as i16),
-            parent,
-        }
-    }
-
-    /// The vertex (grid units) in the box `[lo, hi]` of the node that owns it.
-    #[inline]
-    pub fn position(&self, lo: Vec3, hi: Vec3) -> Vec3 {
-        let t = Vec3::new(
-            self.vertex[0] as f32,
-            self.vertex[1] as f32,
-            self.vertex[2] as f32,
-        ) / 65535.0;
-        lo + (hi - lo) * t
-    }
-
-    /// The unit normal (zero when its crossings' normals cancelled).
-    #[inline]
-    pub fn normal(&self) -> Vec3 {
-        Vec3::new(
-            self.normal[0] as f32,
-            self.normal[1] as f32,
-            self.normal[2] as f32,
-        )
-        .normalize_or_zero()
-    }
 }
 
 /// Times and sizes of one build.
