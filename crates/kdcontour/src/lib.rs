@@ -23,8 +23,9 @@
 //!
 //! ## Pipeline and modules
 //! Data flows one way: [`field`] -> [`hermite`] (built on [`qef`] and [`cell`]) ->
-//! [`kdtree`] -> [`world`], with [`io`], [`validate`](mod@validate) and [`mesh`](mod@mesh) beside. [`settings`]
-//! and [`error`] sit below them all; [`KdTree::build`] runs the whole pipeline once.
+//! [`kdtree`] -> [`world`], with [`io`], [`validate`](mod@validate) and
+//! [`mesh`](mod@mesh) beside. [`settings`] and [`error`] sit below them all;
+//! [`KdTree::build`] runs the whole pipeline once.
 //!
 //! ## Inputs and baselines
 //! - Fields: [`field::sdf`] primitives, [`field::csg`] trees and JSON scene files,
