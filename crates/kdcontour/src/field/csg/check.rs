@@ -67,14 +67,7 @@ impl CsgNode {
                     None => Ok(()),
                 }
             }
-            CsgNode::Sphere { .. }
-            | CsgNode::Box { .. }
-            | CsgNode::RoundedBox { .. }
-            | CsgNode::Torus { .. }
-            | CsgNode::Cylinder { .. }
-            | CsgNode::Capsule { .. }
-            | CsgNode::Cone { .. }
-            | CsgNode::Plane { .. } => unreachable!("primitives are checked above"),
+            _ => unreachable!("every other node is a primitive, checked above"),
         }
     }
 }

@@ -122,13 +122,6 @@ fn compile_op(n: &CsgNode) -> Op {
         }
         CsgNode::Heightfield(p) => Op::Heightfield(Box::new(Heightfield::new(p.clone()))),
         CsgNode::Density(p) => Op::Density(Box::new(Density::new(p.clone()))),
-        CsgNode::Sphere { .. }
-        | CsgNode::Box { .. }
-        | CsgNode::RoundedBox { .. }
-        | CsgNode::Torus { .. }
-        | CsgNode::Cylinder { .. }
-        | CsgNode::Capsule { .. }
-        | CsgNode::Cone { .. }
-        | CsgNode::Plane { .. } => unreachable!("primitives compile above"),
+        _ => unreachable!("every other node is a primitive, compiled above"),
     }
 }

@@ -2,7 +2,7 @@
 //! has, the range each must lie in (checked in the order listed), and the
 //! [`Primitive`] and centre they compile to.
 
-use super::param::{param, Param, Range::*};
+use super::param::{param, Param, Range, Range::*};
 use super::CsgNode;
 use crate::field::sdf::Primitive;
 use glam::Vec3;
@@ -80,10 +80,7 @@ impl CsgNode {
                     half_height,
                 },
                 center,
-                vec![
-                    param("radius", radius, Positive),
-                    param("half_height", half_height, Positive),
-                ],
+                along_y(radius, half_height, Positive),
             ),
             CsgNode::Capsule {
                 radius,
@@ -95,10 +92,7 @@ impl CsgNode {
                     half_height,
                 },
                 center,
-                vec![
-                    param("radius", radius, Positive),
-                    param("half_height", half_height, NonNegative),
-                ],
+                along_y(radius, half_height, NonNegative),
             ),
             CsgNode::Cone {
                 radius,
@@ -110,10 +104,7 @@ impl CsgNode {
                     half_height,
                 },
                 center,
-                vec![
-                    param("radius", radius, Positive),
-                    param("half_height", half_height, Positive),
-                ],
+                along_y(radius, half_height, Positive),
             ),
             CsgNode::Plane { normal, offset } => {
                 return Some(PrimitiveNode {
@@ -146,4 +137,13 @@ impl CsgNode {
             params,
         })
     }
+}
+
+/// The fields of a shape along Y: its radius (> 0) and its half height, in
+/// `half_height_range`.
+fn along_y(radius: f32, half_height: f32, half_height_range: Range) -> Vec<Param> {
+    vec![
+        param("radius", radius, Positive),
+        param("half_height", half_height, half_height_range),
+    ]
 }
