@@ -1,0 +1,127 @@
+//! Compilation: a checked [`CsgNode`] tree becomes a [`Csg`], a tree of [`Op`]s,
+//! each [`Node`] carrying its bounding sphere.
+
+use super::bound::{bound_of, Bound};
+use super::CsgNode;
+use crate::error::Error;
+use crate::field::sdf::Primitive;
+use crate::field::terrain::{Density, Heightfield};
+use glam::{Quat, Vec3};
+
+/// What a compiled node computes.
+pub(super) enum Op {
+    /// A primitive placed at a centre.
+    Prim(Primitive, Vec3),
+    /// Minimum of the children.
+    Union(Vec<Node>),
+    /// Maximum of the children.
+    Intersection(Vec<Node>),
+    /// The first minus the second.
+    Difference(Box<Node>, Box<Node>),
+    /// Smooth minimum of the children over a radius.
+    SmoothUnion(f32, Vec<Node>),
+    /// Smooth maximum of the children over a radius.
+    SmoothIntersection(f32, Vec<Node>),
+    /// Smooth difference over a radius.
+    SmoothDifference(f32, Box<Node>, Box<Node>),
+    /// The child scaled, rotated and translated.
+    Transform {
+        /// World to child rotation.
+        inv_rot: Quat,
+        /// Child to world rotation.
+        rot: Quat,
+        /// Translation.
+        translate: Vec3,
+        /// Uniform scale.
+        scale: f32,
+        /// The transformed node.
+        child: Box<Node>,
+    },
+    /// An fBm height-field terrain.
+    Heightfield(Box<Heightfield>),
+    /// A 3-D density terrain.
+    Density(Box<Density>),
+}
+
+/// A compiled node with its bound (None: unbounded, e.g. terrain or a plane).
+pub(super) struct Node {
+    /// What the node computes.
+    pub op: Op,
+    /// A sphere outside which the node's value is at least the distance to it.
+    pub bound: Option<Bound>,
+}
+
+/// A compiled CSG tree; a [`Field`](crate::field::Field) with analytic gradients
+/// where its parts have them. Unions and differences skip children whose bounding
+/// sphere proves they cannot change the result.
+pub struct Csg {
+    pub(super) root: Node,
+}
+
+impl Csg {
+    /// A sphere `(centre, radius)` outside which the field is at least the distance
+    /// to the sphere (so nothing there is inside), or `None` for unbounded trees
+    /// (planes, terrain).
+    pub fn bounding_sphere(&self) -> Option<(Vec3, f32)> {
+        self.root.bound.map(|b| (b.center, b.radius))
+    }
+}
+
+impl CsgNode {
+    /// Checks and compiles the tree into an evaluable field.
+    pub fn compile(&self) -> Result<Csg, Error> {
+        self.check("root")?;
+        Ok(Csg {
+            root: compile(self),
+        })
+    }
+}
+
+/// Compiles a checked node and its subtree.
+fn compile(n: &CsgNode) -> Node {
+    let op = compile_op(n);
+    let bound = bound_of(&op);
+    Node { op, bound }
+}
+
+/// The op of a checked node, its children compiled.
+fn compile_op(n: &CsgNode) -> Op {
+    if let Some(primitive) = n.primitive() {
+        return Op::Prim(primitive.shape, primitive.center);
+    }
+    let all = |children: &[CsgNode]| children.iter().map(compile).collect();
+    let one = |child: &CsgNode| Box::new(compile(child));
+    match n {
+        CsgNode::Union { children } => Op::Union(all(children)),
+        CsgNode::Intersection { children } => Op::Intersection(all(children)),
+        CsgNode::Difference { a, b } => Op::Difference(one(a), one(b)),
+        CsgNode::SmoothUnion { radius, children } => Op::SmoothUnion(*radius, all(children)),
+        CsgNode::SmoothIntersection { radius, children } => {
+            Op::SmoothIntersection(*radius, all(children))
+        }
+        CsgNode::SmoothDifference { radius, a, b } => Op::SmoothDifference(*radius, one(a), one(b)),
+        CsgNode::Transform {
+            translate,
+            rotate_axis,
+            rotate_degrees,
+            scale,
+            child,
+        } => {
+            let rot = if *rotate_degrees == 0.0 {
+                Quat::IDENTITY
+            } else {
+                Quat::from_axis_angle(rotate_axis.normalize(), rotate_degrees.to_radians())
+            };
+            Op::Transform {
+                inv_rot: rot.inverse(),
+                rot,
+                translate: *translate,
+                scale: *scale,
+                child: one(child),
+            }
+        }
+        CsgNode::Heightfield(p) => Op::Heightfield(Box::new(Heightfield::new(p.clone()))),
+        CsgNode::Density(p) => Op::Density(Box::new(Density::new(p.clone()))),
+        _ => unreachable!("every other node is a primitive, compiled above"),
+    }
+}

@@ -1,0 +1,202 @@
+//! Evaluation: the value and analytic gradient of a compiled node, and [`Csg`] as
+//! a [`Field`].
+
+use super::compile::{Csg, Node, Op};
+use crate::field::Field;
+use glam::Vec3;
+
+/// Polynomial smooth minimum of `(a, ga)` and `(b, gb)` over radius `k` (iq). The
+/// returned gradient is exact: the blend terms' derivatives cancel.
+fn smin(a: (f32, Vec3), b: (f32, Vec3), k: f32) -> (f32, Vec3) {
+    let h = (0.5 + 0.5 * (b.0 - a.0) / k).clamp(0.0, 1.0);
+    let d = b.0 + (a.0 - b.0) * h - k * h * (1.0 - h);
+    (d, b.1.lerp(a.1, h))
+}
+
+/// The value and gradient of the complement.
+fn neg(a: (f32, Vec3)) -> (f32, Vec3) {
+    (-a.0, -a.1)
+}
+
+impl Node {
+    /// The value and gradient at `p`. Unions and differences skip children whose
+    /// bound proves they cannot change the result.
+    pub(super) fn eval(&self, p: Vec3) -> (f32, Vec3) {
+        match &self.op {
+            Op::Prim(prim, c) => prim.value_gradient(p - *c),
+            Op::Union(ch) => {
+                let mut best = (f32::INFINITY, Vec3::Y);
+                for c in ch {
+                    if let Some(b) = c.bound {
+                        if b.lower(p) >= best.0 {
+                            continue;
+                        }
+                    }
+                    let v = c.eval(p);
+                    if v.0 < best.0 {
+                        best = v;
+                    }
+                }
+                best
+            }
+            Op::Intersection(ch) => ch
+                .iter()
+                .map(|c| c.eval(p))
+                .reduce(|a, b| if b.0 > a.0 { b } else { a })
+                .unwrap(),
+            Op::Difference(a, b) => {
+                let a = a.eval(p);
+                if let Some(bb) = b.bound {
+                    if -bb.lower(p) <= a.0 {
+                        return a;
+                    }
+                }
+                let b = neg(b.eval(p));
+                if b.0 > a.0 {
+                    b
+                } else {
+                    a
+                }
+            }
+            Op::SmoothUnion(k, ch) => ch
+                .iter()
+                .map(|c| c.eval(p))
+                .reduce(|a, b| smin(a, b, *k))
+                .unwrap(),
+            Op::SmoothIntersection(k, ch) => neg(ch
+                .iter()
+                .map(|c| neg(c.eval(p)))
+                .reduce(|a, b| smin(a, b, *k))
+                .unwrap()),
+            Op::SmoothDifference(k, a, b) => neg(smin(neg(a.eval(p)), b.eval(p), *k)),
+            Op::Transform {
+                inv_rot,
+                rot,
+                translate,
+                scale,
+                child,
+            } => {
+                let q = *inv_rot * (p - *translate) / *scale;
+                let (d, g) = child.eval(q);
+                (d * scale, *rot * g)
+            }
+            Op::Heightfield(h) => (h.value(p), h.gradient(p)),
+            Op::Density(d) => (d.value(p), d.gradient(p)),
+        }
+    }
+
+    /// The value at `p`, without the gradient where that is cheaper; the same
+    /// bound skipping as [`Node::eval`].
+    pub(super) fn value(&self, p: Vec3) -> f32 {
+        match &self.op {
+            Op::Prim(prim, c) => prim.value(p - *c),
+            Op::Union(ch) => {
+                let mut best = f32::INFINITY;
+                for c in ch {
+                    if let Some(b) = c.bound {
+                        if b.lower(p) >= best {
+                            continue;
+                        }
+                    }
+                    best = best.min(c.value(p));
+                }
+                best
+            }
+            Op::Intersection(ch) => ch
+                .iter()
+                .map(|c| c.value(p))
+                .fold(f32::NEG_INFINITY, f32::max),
+            Op::Difference(a, b) => {
+                let a = a.value(p);
+                if let Some(bb) = b.bound {
+                    if -bb.lower(p) <= a {
+                        return a;
+                    }
+                }
+                a.max(-b.value(p))
+            }
+            Op::Transform {
+                inv_rot,
+                translate,
+                scale,
+                child,
+                ..
+            } => child.value(*inv_rot * (p - *translate) / *scale) * scale,
+            Op::Heightfield(h) => h.value(p),
+            Op::Density(d) => d.value(p),
+            Op::SmoothUnion(..) | Op::SmoothIntersection(..) | Op::SmoothDifference(..) => {
+                self.eval(p).0
+            }
+        }
+    }
+}
+
+/// Whether `op`'s subtree is an exact distance bound (no noise terrain in it).
+fn exact(op: &Op) -> bool {
+    match op {
+        Op::Prim(..) => true,
+        Op::Union(ch)
+        | Op::Intersection(ch)
+        | Op::SmoothUnion(_, ch)
+        | Op::SmoothIntersection(_, ch) => ch.iter().all(|c| exact(&c.op)),
+        Op::Difference(a, b) | Op::SmoothDifference(_, a, b) => exact(&a.op) && exact(&b.op),
+        Op::Transform { child, .. } => exact(&child.op),
+        Op::Heightfield(_) | Op::Density(_) => false,
+    }
+}
+
+impl Field for Csg {
+    fn value(&self, p: Vec3) -> f32 {
+        self.root.value(p)
+    }
+    fn gradient(&self, p: Vec3) -> Vec3 {
+        self.root.eval(p).1
+    }
+    fn sample_grid(
+        &self,
+        grid: &crate::grid::Grid,
+        z_range: std::ops::Range<u32>,
+        out: &mut [f32],
+    ) {
+        self.root.sample(grid, z_range, out)
+    }
+    fn lipschitz(&self) -> Option<f32> {
+        // Primitives are exact distances; min, max, the polynomial smooth min (whose
+        // gradient is a convex blend of unit gradients) and uniform scaling keep the
+        // bound at 1. Noise terrain has no bound.
+        exact(&self.root.op).then_some(1.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::field::csg::CsgNode;
+    use crate::field::Field;
+    use glam::Vec3;
+
+    #[test]
+    fn smooth_gradients_match_differences() {
+        let node = CsgNode::from_json(
+            r#"{"type":"smooth_difference","radius":0.2,
+                "a":{"type":"smooth_union","radius":0.15,"children":[
+                    {"type":"sphere","radius":0.5},
+                    {"type":"box","half_extents":[0.2,0.6,0.2],"center":[0.3,0,0]}]},
+                "b":{"type":"transform","rotate_axis":[1,1,0],"rotate_degrees":30,"scale":0.5,
+                     "child":{"type":"cylinder","radius":0.3,"half_height":2}}}"#,
+        )
+        .unwrap();
+        let f = node.compile().unwrap();
+        for i in 0..200 {
+            let t = i as f32 * 0.37;
+            let p = Vec3::new(t.sin(), (t * 1.3).cos(), (t * 0.7).sin()) * 0.7;
+            let g = f.gradient(p);
+            let fd = crate::field::central_difference(|q| f.value(q), p, 1e-3);
+            if fd.length() > 0.3 {
+                assert!(
+                    (g - fd).length() < 0.05 * fd.length().max(1.0),
+                    "{p}: {g} vs {fd}"
+                );
+            }
+        }
+    }
+}
