@@ -1,7 +1,7 @@
 //! `kdcontour mesh`: one input through the k-d tree, with size, times and checks.
 
 use crate::args::{Input, RunArgs};
-use crate::output::json_line;
+use crate::output::{json_line, print_checks};
 use kdcontour::meshers::Timings;
 use kdcontour::{validate, IndexedMesh, KdTree};
 use std::path::PathBuf;
@@ -56,14 +56,7 @@ pub fn run(args: Mesh) -> Result<(), String> {
             "mesh       {} triangles, {} vertices, {} components, Euler {}",
             report.triangles, report.vertices, report.components, report.euler
         );
-        println!(
-            "checks     watertight {}, manifold {}, oriented {}",
-            report.watertight, report.manifold, report.oriented
-        );
-        println!(
-            "error      max {:.4} cells, mean {:.4} cells",
-            report.max_error, report.mean_error
-        );
+        print_checks(&report);
         println!(
             "time       sample {:.2} ms, build {:.2} ms, contour {:.2} ms, total {:.2} ms",
             tree.stats.sample_ms, tree.stats.build_ms, contour_ms, total_ms

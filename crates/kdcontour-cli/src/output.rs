@@ -1,4 +1,5 @@
-//! The JSON line `mesh --json` and `compare --json` print.
+//! What reports print: the JSON line of `mesh --json` and `compare --json`, and
+//! the check and error lines of the `mesh` and `world` summaries.
 
 use kdcontour::meshers::Timings;
 use kdcontour::MeshReport;
@@ -30,4 +31,16 @@ pub fn json_line(
         "mean_error": r.mean_error,
     })
     .to_string()
+}
+
+/// The summary's `checks` and `error` lines.
+pub fn print_checks(r: &MeshReport) {
+    println!(
+        "checks     watertight {}, manifold {}, oriented {}",
+        r.watertight, r.manifold, r.oriented
+    );
+    println!(
+        "error      max {:.4} cells, mean {:.4} cells",
+        r.max_error, r.mean_error
+    );
 }

@@ -2,6 +2,7 @@
 //! written as one welded mesh so the seams can be checked.
 
 use crate::args::{threads, Input};
+use crate::output::print_checks;
 use kdcontour::io::input::{parse_uvec3, parse_vec3};
 use kdcontour::{validate, ChunkWorld, IndexedMesh, Lod};
 use std::path::PathBuf;
@@ -129,14 +130,7 @@ pub fn run(args: World) -> Result<(), String> {
             "mesh       {} triangles ({seam_triangles} in seams), {} vertices, Euler {}",
             r.triangles, r.vertices, r.euler
         );
-        println!(
-            "checks     watertight {}, manifold {}, oriented {}",
-            r.watertight, r.manifold, r.oriented
-        );
-        println!(
-            "error      max {:.4} cells, mean {:.4} cells",
-            r.max_error, r.mean_error
-        );
+        print_checks(&r);
         println!(
             "time       build {build_ms:.1} ms, contour {contour_ms:.1} ms; {} bytes retained",
             world.retained_bytes()
