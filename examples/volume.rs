@@ -16,7 +16,8 @@ mod common;
 
 use bevy::prelude::*;
 use bevy_kdcontour::kdcontour::field::volume::{Inside, SampledVolume};
-use bevy_kdcontour::kdcontour::io::volume::{load_nifti, load_raw, phantom, VoxelType};
+use bevy_kdcontour::kdcontour::io::input::{parse_uvec3, parse_vec3};
+use bevy_kdcontour::kdcontour::io::volume::{is_nifti, load_nifti, load_raw, phantom, VoxelType};
 use bevy_kdcontour::panel::bevy_egui::{egui, EguiContexts, EguiPrimaryContextPass};
 use bevy_kdcontour::panel::{KdContourPanel, KdContourPanelPlugin};
 use bevy_kdcontour::prelude::*;
@@ -33,14 +34,14 @@ struct Args {
     #[arg(long)]
     file: Option<PathBuf>,
     /// Raw files: voxels along x, y, z.
-    #[arg(long, value_parser = parse_triple::<u32>)]
-    dims: Option<[u32; 3]>,
+    #[arg(long, value_parser = parse_uvec3)]
+    dims: Option<UVec3>,
     /// Raw files: u8, u16, i16 or f32 (little endian).
     #[arg(long, default_value = "u8")]
     r#type: String,
     /// Raw files: voxel spacing along x, y, z.
-    #[arg(long, value_parser = parse_triple::<f32>, default_value = "1,1,1")]
-    spacing: [f32; 3],
+    #[arg(long, value_parser = parse_vec3, default_value = "1,1,1")]
+    spacing: Vec3,
     /// Starting iso value (default: the phantom's skull, or the middle of the
     /// file's value range).
     #[arg(long)]
@@ -53,18 +54,6 @@ struct Args {
     phantom: u32,
     #[command(flatten)]
     shot: ShotArgs,
-}
-
-fn parse_triple<T: std::str::FromStr>(s: &str) -> Result<[T; 3], String> {
-    let v: Vec<T> = s
-        .split(',')
-        .map(|t| {
-            t.trim()
-                .parse::<T>()
-                .map_err(|_| format!("{t:?} is not a number"))
-        })
-        .collect::<Result<_, _>>()?;
-    <[T; 3]>::try_from(v).map_err(|_| format!("{s:?}: give three values, like 64,64,32"))
 }
 
 #[derive(Resource)]
@@ -91,8 +80,7 @@ fn load(args: &Args) -> Result<(SampledVolume, String), String> {
         return Ok((v, format!("Shepp-Logan phantom, {}^3", args.phantom)));
     };
     let name = path.display().to_string();
-    let lower = name.to_ascii_lowercase();
-    let v = if lower.ends_with(".nii") || lower.ends_with(".nii.gz") {
+    let v = if is_nifti(path) {
         load_nifti(path, 0.0, inside).map_err(|e| e.to_string())?
     } else {
         let dims = args.dims.ok_or_else(|| {
@@ -100,15 +88,7 @@ fn load(args: &Args) -> Result<(SampledVolume, String), String> {
         })?;
         let ty = VoxelType::parse(&args.r#type)
             .ok_or_else(|| format!("--type {:?}: use u8, u16, i16 or f32", args.r#type))?;
-        load_raw(
-            path,
-            UVec3::from_array(dims),
-            ty,
-            Vec3::from_array(args.spacing),
-            0.0,
-            inside,
-        )
-        .map_err(|e| e.to_string())?
+        load_raw(path, dims, ty, args.spacing, 0.0, inside).map_err(|e| e.to_string())?
     };
     Ok((v, name))
 }
@@ -180,13 +160,12 @@ fn setup(
 ) {
     let (lo, hi) = scan.volume.bounds();
     let extent = hi - lo;
-    // About 128 cells along the longest side, in chunks of 16 cells.
-    let cell = extent.max_element() / 128.0;
+    // About 128 cells along the longest side (the grid covering the voxels), in
+    // chunks of 16 cells.
+    let grid = bevy_kdcontour::kdcontour::Grid::covering(lo, hi, 128);
+    let cell = grid.cell_size;
     let res = 16;
-    let chunks = (extent / (cell * res as f32))
-        .ceil()
-        .as_uvec3()
-        .max(UVec3::ONE);
+    let chunks = (grid.cells + UVec3::splat(res - 1)) / res;
     let material = materials.add(StandardMaterial {
         base_color: Color::srgb(0.93, 0.88, 0.8),
         perceptual_roughness: 0.6,

@@ -23,8 +23,9 @@ use clap::Parser;
 use fidget_core::context::Tree;
 use fidget_core::vm::VmShape;
 use glam::{UVec3, Vec3};
-use kdcontour::kdtree::{self, Partition};
-use kdcontour::{hermite, mc, scenes, validate, Field, Grid, IndexedMesh, Settings};
+use kdcontour::{
+    hermite, mc, scenes, validate, Field, Grid, IndexedMesh, KdTree, Partition, Settings,
+};
 use std::time::Instant;
 
 /// Compare kdcontour with fast-surface-nets, isosurface, transvoxel, fidget and
@@ -269,6 +270,28 @@ fn load() -> String {
         .unwrap_or_else(|| "?".into())
 }
 
+/// Ours: `KdTree::build` (sample, Hermite data, build) with `partition`, then
+/// `then` on the tree (contouring), all on `settings`' one pool. The build is told
+/// to use the ambient pool (`threads: 0`), which inside `settings.run` is that pool,
+/// so a timed run starts one pool, as when the stages were written out here.
+fn build_then<T: Send>(
+    field: &dyn Field,
+    grid: &Grid,
+    settings: &Settings,
+    partition: Partition,
+    then: impl FnOnce(&KdTree) -> T + Send,
+) -> Result<T, String> {
+    let ambient = Settings {
+        threads: 0,
+        partition,
+        ..settings.clone()
+    };
+    settings
+        .run(|| KdTree::build(field, grid, &ambient).map(|tree| then(&tree)))
+        .and_then(|r| r)
+        .map_err(|e| e.to_string())
+}
+
 fn run(args: &Args, scene_name: &str, res: u32) -> Result<Vec<Row>, String> {
     let scene = scenes::scene(scene_name).map_err(|e| e.to_string())?;
     let field = &*scene.field;
@@ -292,15 +315,9 @@ fn run(args: &Args, scene_name: &str, res: u32) -> Result<Vec<Row>, String> {
 
     // Ours: sample + build + contour.
     let ours = |partition: Partition, threshold: f32| {
-        settings
-            .run(|| {
-                let values = hermite::sample(field, &grid, &settings)?;
-                let h = hermite::Hermite::new(field, &grid, &values, &settings)?;
-                let tree = kdtree::build_with(&h, partition);
-                Ok::<_, kdcontour::Error>(tree.mesh(threshold))
-            })
-            .and_then(|r| r)
-            .map_err(|e| e.to_string())
+        build_then(field, &grid, &settings, partition, |tree| {
+            tree.mesh(threshold)
+        })
     };
     let (ms, kd) = time(args.reps, || ours(Partition::KdTree, args.threshold));
     let kd = kd?;
@@ -375,23 +392,17 @@ fn run(args: &Args, scene_name: &str, res: u32) -> Result<Vec<Row>, String> {
                 // picked by re-extracting one retained tree (a threshold change is
                 // a walk, no rebuild), then timed from the samples like the rows
                 // above. "Fewer triangles at the same error" is this row.
-                let picked = settings
-                    .run(|| -> Result<Option<(f32, IndexedMesh)>, kdcontour::Error> {
-                        let values = hermite::sample(field, &grid, &settings)?;
-                        let h = hermite::Hermite::new(field, &grid, &values, &settings)?;
-                        let tree = kdtree::build(&h);
-                        let mut best = None;
-                        for k in -6..=12 {
-                            let t = args.threshold * 2f32.powi(k);
-                            let m = tree.mesh(t);
-                            if check(&m) <= fidget_err {
-                                best = Some((t, m));
-                            }
+                let picked = build_then(field, &grid, &settings, Partition::KdTree, |tree| {
+                    let mut best = None;
+                    for k in -6..=12 {
+                        let t = args.threshold * 2f32.powi(k);
+                        let m = tree.mesh(t);
+                        if check(&m) <= fidget_err {
+                            best = Some((t, m));
                         }
-                        Ok(best)
-                    })
-                    .and_then(|r| r)
-                    .map_err(|e| e.to_string())?;
+                    }
+                    best
+                })?;
                 if let Some((t, _)) = picked {
                     let (ms, m) = time(args.reps, || ours(Partition::KdTree, t));
                     let m = m?;

@@ -129,9 +129,19 @@ fn errors_exit_2_with_a_message() {
     assert_eq!(code, 2);
     assert!(err.contains("res must be >= 1"), "{err}");
 
-    let (code, _, err) = kdcontour(&["mesh", "--scene", "sphere", "--res", "16", "--out", "x.stl"]);
+    let stl = dir.join("x.stl");
+    let (code, _, err) = kdcontour(&[
+        "mesh",
+        "--scene",
+        "sphere",
+        "--res",
+        "16",
+        "--out",
+        stl.to_str().unwrap(),
+    ]);
     assert_eq!(code, 2);
     assert!(err.contains(".obj or .ply"), "{err}");
+    assert!(!stl.exists(), "a refused --out must not create the file");
     std::fs::remove_dir_all(&dir).ok();
 }
 

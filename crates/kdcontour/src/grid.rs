@@ -39,6 +39,43 @@ impl Grid {
         }
     }
 
+    /// The box `lo..hi` with `res` cubic cells along its longest side, corner
+    /// (0, 0, 0) at `lo`, and enough cells along the other sides to cover it (at
+    /// least one). With `res == 0` or an empty box the grid has no cells (and
+    /// [`Grid::validate`] says so).
+    pub fn covering(lo: Vec3, hi: Vec3, res: u32) -> Self {
+        let ext = hi - lo;
+        let cell = if res == 0 {
+            0.0
+        } else {
+            ext.max_element() / res as f32
+        };
+        let cells = if cell > 0.0 {
+            (ext / cell).ceil().as_uvec3().max(UVec3::ONE)
+        } else {
+            UVec3::ZERO
+        };
+        Grid {
+            origin: lo,
+            cell_size: cell,
+            cells,
+            offset: IVec3::ZERO,
+        }
+    }
+
+    /// The grid for an input with bounds (a volume, a triangle mesh):
+    /// [`Grid::covering`] the box `lo..hi` with `res` cells along its longest side,
+    /// plus one cell of margin all round, so a surface inside the box closes inside
+    /// the grid.
+    pub fn fit(lo: Vec3, hi: Vec3, res: u32) -> Self {
+        let mut g = Grid::covering(lo, hi, res);
+        g.origin = lo - Vec3::splat(g.cell_size);
+        if g.cell_size > 0.0 {
+            g.cells += UVec3::splat(2);
+        }
+        g
+    }
+
     /// Checks that the grid is usable; the error says which part is wrong.
     pub fn validate(&self) -> Result<()> {
         if self.cells.min_element() == 0 {
@@ -104,5 +141,44 @@ impl Grid {
     pub fn corner_index(&self, x: u32, y: u32, z: u32) -> usize {
         let c = self.corners();
         (x as usize) + c.x as usize * ((y as usize) + c.y as usize * z as usize)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fit_puts_res_cells_along_the_longest_side_and_one_of_margin() {
+        let g = Grid::fit(Vec3::new(1.0, 2.0, 3.0), Vec3::new(5.0, 3.0, 3.5), 8);
+        assert_eq!(g.cell_size, 0.5);
+        assert_eq!(g.cells, UVec3::new(8, 2, 1) + UVec3::splat(2));
+        assert_eq!(g.origin, Vec3::new(0.5, 1.5, 2.5));
+        assert_eq!(g.offset, IVec3::ZERO);
+        // The box lies inside, a cell from the edge.
+        assert_eq!(g.corner_pos(UVec3::ONE), Vec3::new(1.0, 2.0, 3.0));
+        assert!(g.validate().is_ok());
+    }
+
+    #[test]
+    fn covering_has_no_margin_and_a_cell_on_flat_axes() {
+        let g = Grid::covering(Vec3::ZERO, Vec3::new(4.0, 1.5, 0.0), 4);
+        assert_eq!((g.origin, g.cell_size), (Vec3::ZERO, 1.0));
+        assert_eq!(g.cells, UVec3::new(4, 2, 1));
+        assert_eq!(
+            Grid::fit(Vec3::ZERO, Vec3::new(4.0, 1.5, 0.0), 4).cells,
+            UVec3::new(6, 4, 3)
+        );
+    }
+
+    #[test]
+    fn fitting_nothing_gives_an_invalid_grid() {
+        for g in [
+            Grid::fit(Vec3::ZERO, Vec3::ONE, 0),
+            Grid::fit(Vec3::ONE, Vec3::ONE, 16),
+        ] {
+            assert_eq!(g.cells, UVec3::ZERO);
+            assert!(g.validate().is_err());
+        }
     }
 }

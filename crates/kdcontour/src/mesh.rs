@@ -135,7 +135,9 @@ impl IndexedMesh {
         w.flush()
     }
 
-    /// Writes OBJ or PLY, chosen by the extension of `path`.
+    /// Writes OBJ or PLY, chosen by the extension of `path` (any case). An unknown
+    /// extension is refused before anything is created, so an existing file of
+    /// another format is left as it was.
     pub fn save(&self, path: &std::path::Path) -> Result<()> {
         let io = |e: std::io::Error| Error::Io {
             path: path.display().to_string(),
@@ -145,15 +147,18 @@ impl IndexedMesh {
             .extension()
             .and_then(|e| e.to_str())
             .map(|e| e.to_ascii_lowercase());
+        let write: fn(&Self, &mut std::fs::File) -> std::io::Result<()> = match ext.as_deref() {
+            Some("obj") => |m, f| m.write_obj(f),
+            Some("ply") => |m, f| m.write_ply(f),
+            _ => {
+                return Err(Error::Io {
+                    path: path.display().to_string(),
+                    message: "unknown mesh format; use a .obj or .ply extension".into(),
+                })
+            }
+        };
         let mut f = std::fs::File::create(path).map_err(io)?;
-        match ext.as_deref() {
-            Some("obj") => self.write_obj(&mut f).map_err(io),
-            Some("ply") => self.write_ply(&mut f).map_err(io),
-            _ => Err(Error::Io {
-                path: path.display().to_string(),
-                message: "unknown mesh format; use a .obj or .ply extension".into(),
-            }),
-        }
+        write(self, &mut f).map_err(io)
     }
 }
 
@@ -176,5 +181,25 @@ mod tests {
         m.write_obj(&mut obj).unwrap();
         let text = String::from_utf8(obj).unwrap();
         assert!(text.contains("f 1//1 2//2 3//3"));
+    }
+
+    #[test]
+    fn a_refused_save_leaves_an_existing_file_untouched() {
+        let dir = std::env::temp_dir().join(format!("kdcontour-mesh-save-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let keep = dir.join("keep.stl");
+        std::fs::write(&keep, b"solid keep").unwrap();
+        let err = IndexedMesh::default().save(&keep).unwrap_err();
+        assert!(err.to_string().contains(".obj or .ply"), "{err}");
+        assert_eq!(std::fs::read(&keep).unwrap(), b"solid keep");
+        // Nor is a missing file created.
+        let absent = dir.join("absent.stl");
+        assert!(IndexedMesh::default().save(&absent).is_err());
+        assert!(!absent.exists());
+        // Upper-case extensions are accepted.
+        let obj = dir.join("upper.OBJ");
+        IndexedMesh::default().save(&obj).unwrap();
+        assert!(std::fs::read(&obj).unwrap().starts_with(b"# kdcontour"));
+        std::fs::remove_dir_all(&dir).ok();
     }
 }

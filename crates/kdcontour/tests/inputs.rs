@@ -23,16 +23,6 @@ fn input_message(e: Error) -> String {
     }
 }
 
-fn fitted_grid(lo: Vec3, hi: Vec3, res: u32) -> Grid {
-    let cell = (hi - lo).max_element() / res as f32;
-    Grid {
-        origin: lo - Vec3::splat(cell),
-        cell_size: cell,
-        cells: ((hi - lo) / cell).ceil().as_uvec3() + UVec3::splat(2),
-        offset: glam::IVec3::ZERO,
-    }
-}
-
 /// Every mesher gives a closed manifold with the same topology.
 fn check_all_meshers(field: &dyn Field, grid: &Grid) -> i64 {
     let s = meshers::sample(field, grid, &Settings::default()).unwrap();
@@ -64,7 +54,7 @@ fn phantom_round_trips_through_nifti_and_gzip_and_meshes_closed() {
     }
     let back = load_nifti(&tmp("p.nii.gz"), 1.5, Inside::Above).unwrap();
     let (lo, hi) = back.bounds();
-    check_all_meshers(&back, &fitted_grid(lo, hi, 48));
+    check_all_meshers(&back, &Grid::fit(lo, hi, 48));
 }
 
 #[test]
@@ -111,11 +101,7 @@ fn raw_volumes_of_every_type() {
         )
         .unwrap();
         let (lo, hi) = vol.bounds();
-        assert_eq!(
-            check_all_meshers(&vol, &fitted_grid(lo, hi, 24)),
-            2,
-            "{ty:?}"
-        );
+        assert_eq!(check_all_meshers(&vol, &Grid::fit(lo, hi, 24)), 2, "{ty:?}");
         // Truncated, and dims that do not match.
         std::fs::write(&path, &bytes[..bytes.len() - 1]).unwrap();
         let msg =
@@ -302,7 +288,7 @@ fn meshes_load_and_become_closed_manifolds() {
 
     let sdf = MeshSdf::new(&loaded);
     let (lo, hi) = sdf.bounds();
-    assert_eq!(check_all_meshers(&sdf, &fitted_grid(lo, hi, 32)), 2);
+    assert_eq!(check_all_meshers(&sdf, &Grid::fit(lo, hi, 32)), 2);
 }
 
 #[test]
@@ -318,7 +304,7 @@ fn a_mesh_with_holes_still_meshes_closed() {
         "above the hole stays outside"
     );
     let (lo, hi) = sdf.bounds();
-    assert_eq!(check_all_meshers(&sdf, &fitted_grid(lo, hi, 32)), 2);
+    assert_eq!(check_all_meshers(&sdf, &Grid::fit(lo, hi, 32)), 2);
 }
 
 #[test]

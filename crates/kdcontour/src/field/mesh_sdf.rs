@@ -4,8 +4,27 @@
 //! evaluated with the dipole approximation of Barill et al. 2018 for far BVH nodes.
 
 use super::Field;
-use crate::io::mesh::TriMesh;
 use glam::Vec3;
+
+/// A triangle soup with shared vertices.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TriMesh {
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Vertex indices, counter-clockwise seen from outside.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl TriMesh {
+    /// The box around the vertices.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.positions
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(*p), hi.max(*p))
+            })
+    }
+}
 
 /// Triangles per BVH leaf.
 const LEAF: usize = 4;

@@ -5,25 +5,8 @@ use crate::error::Result;
 use glam::Vec3;
 use std::path::Path;
 
-/// A triangle soup with shared vertices.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct TriMesh {
-    /// Vertex positions.
-    pub positions: Vec<Vec3>,
-    /// Vertex indices, counter-clockwise seen from outside.
-    pub triangles: Vec<[u32; 3]>,
-}
-
-impl TriMesh {
-    /// The box around the vertices.
-    pub fn bounds(&self) -> (Vec3, Vec3) {
-        self.positions
-            .iter()
-            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
-                (lo.min(*p), hi.max(*p))
-            })
-    }
-}
+// The mesh type lives with the field that reads it (field must not depend on io).
+pub use crate::field::mesh_sdf::TriMesh;
 
 /// Loads an `.obj` or `.ply` file (chosen by extension).
 pub fn load_mesh(path: &Path) -> Result<TriMesh> {

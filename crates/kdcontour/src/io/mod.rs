@@ -1,5 +1,6 @@
 //! Loading real inputs: raw and NIfTI-1 volumes, OBJ and PLY triangle meshes.
 
+pub mod input;
 pub mod mesh;
 pub mod volume;
 

@@ -162,6 +162,13 @@ fn decode(bytes: &[u8], code: i16, count: usize, big_endian: bool) -> Option<Vec
     })
 }
 
+/// Whether `path` names a NIfTI-1 file: it ends in `.nii` or `.nii.gz`, in any case
+/// (`.NII.GZ` too). Other volume files are read as raw voxels.
+pub fn is_nifti(path: &Path) -> bool {
+    let name = path.to_string_lossy().to_ascii_lowercase();
+    name.ends_with(".nii") || name.ends_with(".nii.gz")
+}
+
 /// Loads a NIfTI-1 file (`.nii`, or gzip-compressed `.nii.gz`). Dims, voxel type,
 /// spacing (`pixdim`) and intensity scaling (`scl_slope`, `scl_inter`) come from
 /// the header; the orientation matrices are not applied (voxel (0,0,0) is at the
@@ -381,5 +388,20 @@ pub fn phantom(n: u32) -> SampledVolume {
         data,
         iso: 1.5,
         inside: Inside::Above,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nifti_is_told_by_its_extension_in_any_case() {
+        for name in ["head.nii", "head.nii.gz", "HEAD.NII.GZ", "dir.x/Head.Nii"] {
+            assert!(is_nifti(Path::new(name)), "{name}");
+        }
+        for name in ["ct.raw", "head.nii.bak", "head.gz", "nii"] {
+            assert!(!is_nifti(Path::new(name)), "{name}");
+        }
     }
 }
