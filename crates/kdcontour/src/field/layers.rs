@@ -1,0 +1,817 @@
+//! A layered CSG model for interactive editing: an ordered list of [`Layer`]s, each
+//! a primitive (or an imported subtree) with its own translation and uniform scale,
+//! combined with everything before it by an [`Operation`].
+//!
+//! [`Layers`] holds the list, each layer's compiled field and bounds, and an undo /
+//! redo history. It compiles a layer once per change, saves and loads the JSON scene
+//! format (a left fold of the layers, see [`CsgNode`]) and says which region of
+//! space a change can reach ([`Change::regions`]), so only the chunks there need
+//! re-meshing. Selection is the caller's.
+
+use super::csg::{Csg, CsgNode};
+use super::raycast;
+use crate::error::SceneError;
+use glam::Vec3;
+
+/// A primitive a layer can be, at its unit size (the layer's transform places and
+/// scales it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Solid {
+    /// A ball of radius 0.5.
+    Sphere,
+    /// A cube of half side 0.4.
+    Box,
+    /// A cube of half side 0.4 with edges rounded by 0.12.
+    RoundedBox,
+    /// A torus around Y, ring 0.4, tube 0.14.
+    Torus,
+    /// A cylinder along Y, radius 0.3, half height 0.45.
+    Cylinder,
+    /// A capsule along Y, radius 0.25, half height 0.35.
+    Capsule,
+    /// A cone along Y, radius 0.4, half height 0.5.
+    Cone,
+}
+
+impl Solid {
+    /// Every solid, in the order an editor lists them.
+    pub const ALL: [Solid; 7] = [
+        Solid::Sphere,
+        Solid::Box,
+        Solid::RoundedBox,
+        Solid::Torus,
+        Solid::Cylinder,
+        Solid::Capsule,
+        Solid::Cone,
+    ];
+
+    /// The solid as a scene node, centred at the origin.
+    pub fn node(self) -> CsgNode {
+        let center = Vec3::ZERO;
+        let cube = Vec3::splat(0.4);
+        match self {
+            Solid::Sphere => CsgNode::Sphere {
+                radius: 0.5,
+                center,
+            },
+            Solid::Box => CsgNode::Box {
+                half_extents: cube,
+                center,
+            },
+            Solid::RoundedBox => CsgNode::RoundedBox {
+                half_extents: cube,
+                radius: 0.12,
+                center,
+            },
+            Solid::Torus => CsgNode::Torus {
+                major_radius: 0.4,
+                minor_radius: 0.14,
+                center,
+            },
+            Solid::Cylinder => CsgNode::Cylinder {
+                radius: 0.3,
+                half_height: 0.45,
+                center,
+            },
+            Solid::Capsule => CsgNode::Capsule {
+                radius: 0.25,
+                half_height: 0.35,
+                center,
+            },
+            Solid::Cone => CsgNode::Cone {
+                radius: 0.4,
+                half_height: 0.5,
+                center,
+            },
+        }
+    }
+}
+
+/// How a layer combines with everything before it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Operation {
+    /// Adds the layer.
+    Union,
+    /// Cuts the layer away.
+    Difference,
+    /// Keeps only what is inside the layer too.
+    Intersection,
+    /// [`Operation::Union`] blended over the layer's blend radius.
+    SmoothUnion,
+    /// [`Operation::Difference`] blended over the layer's blend radius.
+    SmoothDifference,
+    /// [`Operation::Intersection`] blended over the layer's blend radius.
+    SmoothIntersection,
+}
+
+impl Operation {
+    /// Every operation, in the order an editor lists them.
+    pub const ALL: [Operation; 6] = [
+        Operation::Union,
+        Operation::Difference,
+        Operation::Intersection,
+        Operation::SmoothUnion,
+        Operation::SmoothDifference,
+        Operation::SmoothIntersection,
+    ];
+
+    /// The scene file's name of the operation (`"smooth_union"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Operation::Union => "union",
+            Operation::Difference => "difference",
+            Operation::Intersection => "intersection",
+            Operation::SmoothUnion => "smooth_union",
+            Operation::SmoothDifference => "smooth_difference",
+            Operation::SmoothIntersection => "smooth_intersection",
+        }
+    }
+
+    /// Whether it blends over a radius.
+    pub fn is_smooth(self) -> bool {
+        matches!(
+            self,
+            Operation::SmoothUnion | Operation::SmoothDifference | Operation::SmoothIntersection
+        )
+    }
+
+    /// `acc` combined with `layer` (blended over `blend` when smooth).
+    fn combine(self, acc: CsgNode, layer: CsgNode, blend: f32) -> CsgNode {
+        let radius = blend;
+        match self {
+            Operation::Union => CsgNode::Union {
+                children: vec![acc, layer],
+            },
+            Operation::Intersection => CsgNode::Intersection {
+                children: vec![acc, layer],
+            },
+            Operation::SmoothUnion => CsgNode::SmoothUnion {
+                radius,
+                children: vec![acc, layer],
+            },
+            Operation::SmoothIntersection => CsgNode::SmoothIntersection {
+                radius,
+                children: vec![acc, layer],
+            },
+            Operation::Difference => CsgNode::Difference {
+                a: Box::new(acc),
+                b: Box::new(layer),
+            },
+            Operation::SmoothDifference => CsgNode::SmoothDifference {
+                radius,
+                a: Box::new(acc),
+                b: Box::new(layer),
+            },
+        }
+    }
+
+    /// The operation at the top of `node`, its blend radius, and its two operands,
+    /// when `node` is a binary combination.
+    fn split(node: &CsgNode) -> Option<(Operation, Option<f32>, &CsgNode, &CsgNode)> {
+        fn pair(c: &[CsgNode]) -> Option<(&CsgNode, &CsgNode)> {
+            match c {
+                [a, b] => Some((a, b)),
+                _ => None,
+            }
+        }
+        Some(match node {
+            CsgNode::Union { children } => {
+                let (a, b) = pair(children)?;
+                (Operation::Union, None, a, b)
+            }
+            CsgNode::Intersection { children } => {
+                let (a, b) = pair(children)?;
+                (Operation::Intersection, None, a, b)
+            }
+            CsgNode::Difference { a, b } => (Operation::Difference, None, &**a, &**b),
+            CsgNode::SmoothUnion { radius, children } => {
+                let (a, b) = pair(children)?;
+                (Operation::SmoothUnion, Some(*radius), a, b)
+            }
+            CsgNode::SmoothIntersection { radius, children } => {
+                let (a, b) = pair(children)?;
+                (Operation::SmoothIntersection, Some(*radius), a, b)
+            }
+            CsgNode::SmoothDifference { radius, a, b } => {
+                (Operation::SmoothDifference, Some(*radius), &**a, &**b)
+            }
+            _ => return None,
+        })
+    }
+}
+
+/// What a layer is: a primitive, or a subtree loaded from a file that is not a
+/// chain of transformed primitives (kept whole, still movable and scalable).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Body {
+    /// One of the editor's primitives.
+    Primitive(Solid),
+    /// Any scene node.
+    Imported(CsgNode),
+}
+
+/// One layer: a body, placed and scaled, combined with the layers before it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Layer {
+    /// What the layer is.
+    pub body: Body,
+    /// How it combines with everything before it (ignored for the first layer).
+    pub operation: Operation,
+    /// Blend radius of smooth operations (> 0).
+    pub blend: f32,
+    /// Where the body's origin goes.
+    pub translate: Vec3,
+    /// Uniform scale (> 0).
+    pub scale: f32,
+}
+
+/// Blend radius of a layer read from a file whose operation has none.
+const DEFAULT_BLEND: f32 = 0.1;
+
+impl Layer {
+    /// A primitive layer.
+    pub fn new(
+        solid: Solid,
+        operation: Operation,
+        blend: f32,
+        translate: Vec3,
+        scale: f32,
+    ) -> Self {
+        Layer {
+            body: Body::Primitive(solid),
+            operation,
+            blend,
+            translate,
+            scale,
+        }
+    }
+
+    /// A short name for lists: the solid, or `imported`.
+    pub fn label(&self) -> String {
+        match &self.body {
+            Body::Primitive(s) => format!("{s:?}"),
+            Body::Imported(_) => "imported".into(),
+        }
+    }
+
+    /// The layer alone, as a scene node (a transform of its body).
+    pub fn node(&self) -> CsgNode {
+        let child = match &self.body {
+            Body::Primitive(s) => s.node(),
+            Body::Imported(n) => n.clone(),
+        };
+        CsgNode::Transform {
+            translate: self.translate,
+            rotate_axis: Vec3::Y,
+            rotate_degrees: 0.0,
+            scale: self.scale,
+            child: Box::new(child),
+        }
+    }
+
+    /// Reads a scene node as one layer: an unrotated transform keeps its translation
+    /// and scale (its child is a primitive if it equals one), anything else is
+    /// imported whole.
+    fn of(node: &CsgNode, operation: Operation, blend: f32) -> Layer {
+        if let CsgNode::Transform {
+            translate,
+            rotate_degrees,
+            scale,
+            child,
+            ..
+        } = node
+        {
+            if *rotate_degrees == 0.0 {
+                let body = Solid::ALL
+                    .into_iter()
+                    .find(|s| s.node() == **child)
+                    .map(Body::Primitive)
+                    .unwrap_or_else(|| Body::Imported((**child).clone()));
+                return Layer {
+                    body,
+                    operation,
+                    blend,
+                    translate: *translate,
+                    scale: *scale,
+                };
+            }
+        }
+        Layer {
+            body: Body::Imported(node.clone()),
+            operation,
+            blend,
+            translate: Vec3::ZERO,
+            scale: 1.0,
+        }
+    }
+}
+
+/// The editor's opening scene: a rounded block with a dome, a bore, a ring and a
+/// carved groove.
+pub fn starter() -> Vec<Layer> {
+    let s = |solid, op, translate, scale| Layer::new(solid, op, 0.12, translate, scale);
+    vec![
+        s(
+            Solid::RoundedBox,
+            Operation::Union,
+            Vec3::new(0.0, -0.1, 0.0),
+            1.6,
+        ),
+        s(
+            Solid::Sphere,
+            Operation::SmoothUnion,
+            Vec3::new(0.0, 0.6, 0.0),
+            1.3,
+        ),
+        s(
+            Solid::Cylinder,
+            Operation::Difference,
+            Vec3::new(0.0, 1.15, 0.0),
+            1.1,
+        ),
+        s(
+            Solid::Torus,
+            Operation::SmoothUnion,
+            Vec3::new(0.0, -0.55, 0.0),
+            2.2,
+        ),
+        s(
+            Solid::Capsule,
+            Operation::SmoothDifference,
+            Vec3::new(0.55, 0.1, 0.75),
+            0.9,
+        ),
+    ]
+}
+
+/// The whole list as one scene node: a left fold of the layers in order. An empty
+/// list is a tiny sphere far away, so its field stays finite.
+pub fn scene_node(layers: &[Layer]) -> CsgNode {
+    let Some(first) = layers.first() else {
+        return CsgNode::Sphere {
+            radius: 0.01,
+            center: Vec3::splat(100.0),
+        };
+    };
+    layers[1..].iter().fold(first.node(), |acc, l| {
+        l.operation.combine(acc, l.node(), l.blend)
+    })
+}
+
+/// Reads a scene node back into layers: a left fold of transformed bodies comes
+/// back as the list it was saved from; anything else becomes one imported layer.
+pub fn layers_of(node: &CsgNode) -> Vec<Layer> {
+    let mut tail = Vec::new();
+    let mut node = node;
+    while let Some((operation, blend, a, b)) = Operation::split(node) {
+        tail.push(Layer::of(b, operation, blend.unwrap_or(DEFAULT_BLEND)));
+        node = a;
+    }
+    tail.push(Layer::of(node, Operation::Union, DEFAULT_BLEND));
+    tail.reverse();
+    tail
+}
+
+/// Parses a scene file's text into layers; errors name the line and column, or the
+/// bad node's path (see [`CsgNode::from_json`]).
+pub fn from_json(text: &str) -> Result<Vec<Layer>, SceneError> {
+    Ok(layers_of(&CsgNode::from_json(text)?))
+}
+
+/// The scene file's text for `layers` (pretty JSON, newline-terminated).
+pub fn to_json(layers: &[Layer]) -> String {
+    scene_node(layers).to_json() + "\n"
+}
+
+/// A layer compiled: its field (for picking) and the sphere it can change.
+struct Part {
+    field: Csg,
+    reach: Option<(Vec3, f32)>,
+}
+
+impl Part {
+    /// Where the layer can change the scene: its bounding sphere grown by its blend
+    /// radius, or `None` when it is unbounded.
+    fn of(layer: &Layer) -> Result<Part, SceneError> {
+        let field = layer.node().compile().map_err(|e| match e {
+            crate::Error::Scene(s) => s,
+            other => SceneError::Semantic {
+                path: "root".into(),
+                message: other.to_string(),
+            },
+        })?;
+        let grow = if layer.operation.is_smooth() {
+            layer.blend
+        } else {
+            0.0
+        };
+        let reach = field.bounding_sphere().map(|(c, r)| (c, r + grow));
+        Ok(Part { field, reach })
+    }
+}
+
+/// One state of the list, with each layer compiled.
+struct State {
+    list: Vec<Layer>,
+    parts: Vec<Part>,
+}
+
+impl State {
+    fn of(list: Vec<Layer>) -> Result<State, SceneError> {
+        scene_node(&list).check("root")?;
+        let parts = list.iter().map(Part::of).collect::<Result<_, _>>()?;
+        Ok(State { list, parts })
+    }
+}
+
+/// What a change to the list did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Change {
+    /// Spheres `(centre, radius)` outside which the scene's surface and its
+    /// inside / outside did not change, or `None` for everywhere.
+    ///
+    /// Outside a layer's bounding sphere (grown by its blend radius) its distance
+    /// is positive, so the scene's inside / outside and its surface there do not
+    /// depend on it; the spheres are the changed layers' old and new ones. (A
+    /// smooth operation later in the list could in principle carry a change a
+    /// blend radius further; the regions do not grow for that.)
+    pub regions: Option<Vec<(Vec3, f32)>>,
+}
+
+/// Most undo steps kept.
+pub const UNDO_DEPTH: usize = 200;
+
+/// The edited layer list, each layer compiled once per change, with undo and redo.
+pub struct Layers {
+    now: State,
+    undo: Vec<State>,
+    redo: Vec<State>,
+}
+
+impl Layers {
+    /// Checks and compiles `list`; the error names the bad node.
+    pub fn new(list: Vec<Layer>) -> Result<Layers, SceneError> {
+        Ok(Layers {
+            now: State::of(list)?,
+            undo: Vec::new(),
+            redo: Vec::new(),
+        })
+    }
+
+    /// The layers, in order.
+    pub fn list(&self) -> &[Layer] {
+        &self.now.list
+    }
+
+    /// The whole scene as one node (see [`scene_node`]).
+    pub fn scene_node(&self) -> CsgNode {
+        scene_node(&self.now.list)
+    }
+
+    /// The scene's field with its origin moved to `offset` (a volume's local space
+    /// when the volume's corner is at `-offset`).
+    pub fn field_at(&self, offset: Vec3) -> Csg {
+        CsgNode::Transform {
+            translate: offset,
+            rotate_axis: Vec3::Y,
+            rotate_degrees: 0.0,
+            scale: 1.0,
+            child: Box::new(self.scene_node()),
+        }
+        .compile()
+        .expect("every state was checked when it was set")
+    }
+
+    /// The sphere layer `i` can change (its bounds grown by its blend radius), or
+    /// `None` when it is unbounded or out of range.
+    pub fn reach(&self, i: usize) -> Option<(Vec3, f32)> {
+        self.now.parts.get(i)?.reach
+    }
+
+    /// The layer whose own surface the ray from `origin` along `dir` meets first,
+    /// within `max_dist` (marching steps of at most `max_step`; see [`raycast`]).
+    pub fn pick(&self, origin: Vec3, dir: Vec3, max_dist: f32, max_step: f32) -> Option<usize> {
+        let mut best: Option<(f32, usize)> = None;
+        for (i, p) in self.now.parts.iter().enumerate() {
+            if let Some(t) = raycast(&p.field, origin, dir, max_dist, max_step) {
+                if best.is_none_or(|(bt, _)| t < bt) {
+                    best = Some((t, i));
+                }
+            }
+        }
+        best.map(|(_, i)| i)
+    }
+
+    /// Replaces the list as one undo step. On error nothing changes.
+    pub fn edit(&mut self, list: Vec<Layer>) -> Result<Change, SceneError> {
+        let next = State::of(list)?;
+        let before = std::mem::replace(&mut self.now, next);
+        let change = self.change_from(&before);
+        self.undo.push(before);
+        self.redo.clear();
+        if self.undo.len() > UNDO_DEPTH {
+            self.undo.remove(0);
+        }
+        Ok(change)
+    }
+
+    /// Replaces the list within the last undo step (the later frames of a drag,
+    /// undone together with its first). On error nothing changes.
+    pub fn continue_edit(&mut self, list: Vec<Layer>) -> Result<Change, SceneError> {
+        let next = State::of(list)?;
+        let before = std::mem::replace(&mut self.now, next);
+        Ok(self.change_from(&before))
+    }
+
+    /// Whether there is a step to undo.
+    pub fn can_undo(&self) -> bool {
+        !self.undo.is_empty()
+    }
+
+    /// Whether there is a step to redo.
+    pub fn can_redo(&self) -> bool {
+        !self.redo.is_empty()
+    }
+
+    /// Goes back one step, or `None` when there is none.
+    pub fn undo(&mut self) -> Option<Change> {
+        let prev = self.undo.pop()?;
+        let now = std::mem::replace(&mut self.now, prev);
+        let change = self.change_from(&now);
+        self.redo.push(now);
+        Some(change)
+    }
+
+    /// Goes forward one undone step, or `None` when there is none.
+    pub fn redo(&mut self) -> Option<Change> {
+        let next = self.redo.pop()?;
+        let now = std::mem::replace(&mut self.now, next);
+        let change = self.change_from(&now);
+        self.undo.push(now);
+        Some(change)
+    }
+
+    /// The regions the change from `before` to now can reach.
+    fn change_from(&self, before: &State) -> Change {
+        let regions = changed(&before.list, &self.now.list).and_then(|layers| {
+            layers
+                .into_iter()
+                .map(|w| match w {
+                    Which::Old(i) => before.parts[i].reach,
+                    Which::New(i) => self.now.parts[i].reach,
+                })
+                .collect::<Option<Vec<_>>>()
+        });
+        Change { regions }
+    }
+}
+
+/// A layer of the list before or after a change.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Which {
+    Old(usize),
+    New(usize),
+}
+
+/// The layers a change touched: in a list of the same length every differing
+/// layer, old and new; when one layer was inserted or removed (everything else the
+/// same, in order), that layer; otherwise `None`.
+fn changed(a: &[Layer], b: &[Layer]) -> Option<Vec<Which>> {
+    if a.len() == b.len() {
+        return Some(
+            a.iter()
+                .zip(b)
+                .enumerate()
+                .filter(|(_, (x, y))| x != y)
+                .flat_map(|(i, _)| [Which::Old(i), Which::New(i)])
+                .collect(),
+        );
+    }
+    let removed = a.len() > b.len();
+    let (short, long) = if removed { (b, a) } else { (a, b) };
+    let i = (0..short.len())
+        .find(|&i| short[i] != long[i])
+        .unwrap_or(short.len());
+    (long.len() == short.len() + 1 && short[i..] == long[i + 1..]).then(|| {
+        vec![if removed {
+            Which::Old(i)
+        } else {
+            Which::New(i)
+        }]
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Field;
+
+    /// Half the side of the editor's cube (world units).
+    const HALF: f32 = 1.5;
+
+    #[test]
+    fn a_saved_scene_loads_back_as_the_same_shapes() {
+        let layers = starter();
+        let text = to_json(&layers);
+        // Sharp operations have no blend radius to save.
+        let norm = |v: Vec<Layer>| -> Vec<Layer> {
+            v.into_iter()
+                .map(|mut s| {
+                    if !s.operation.is_smooth() {
+                        s.blend = 0.0;
+                    }
+                    s
+                })
+                .collect()
+        };
+        assert_eq!(norm(from_json(&text).unwrap()), norm(layers));
+        // And it is a valid scene file for every other tool.
+        CsgNode::from_json(&text).unwrap().compile().unwrap();
+    }
+
+    #[test]
+    fn files_the_untyped_editor_wrote_still_load() {
+        // Sorted keys, f32 values printed as f64, no rotation fields.
+        let text = r#"{
+  "a": {
+    "child": { "radius": 0.5, "type": "sphere" },
+    "scale": 1.2999999523162842,
+    "translate": [0.0, 0.6000000238418579, 0.0],
+    "type": "transform"
+  },
+  "b": {
+    "child": { "half_height": 0.3499999940395355, "radius": 0.25, "type": "capsule" },
+    "scale": 0.8999999761581421,
+    "translate": [0.550000011920929, 0.10000000149011612, 0.75],
+    "type": "transform"
+  },
+  "radius": 0.11999999731779099,
+  "type": "smooth_difference"
+}"#;
+        let layers = from_json(text).unwrap();
+        assert_eq!(
+            layers,
+            vec![
+                Layer::new(
+                    Solid::Sphere,
+                    Operation::Union,
+                    DEFAULT_BLEND,
+                    Vec3::new(0.0, 0.6, 0.0),
+                    1.3
+                ),
+                Layer::new(
+                    Solid::Capsule,
+                    Operation::SmoothDifference,
+                    0.12,
+                    Vec3::new(0.55, 0.1, 0.75),
+                    0.9
+                ),
+            ]
+        );
+    }
+
+    #[test]
+    fn foreign_scenes_load_as_one_movable_shape() {
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../scenes/example.json"
+        ))
+        .unwrap();
+        let node = CsgNode::from_json(&text).unwrap();
+        let layers = from_json(&text).unwrap();
+        assert_eq!(layers.len(), 1);
+        assert!(matches!(layers[0].body, Body::Imported(_)));
+        // Wrapped in a transform, it is the same field.
+        let a = node.compile().unwrap();
+        let b = scene_node(&layers).compile().unwrap();
+        for i in 0..50 {
+            let p = Vec3::new(
+                (i as f32 * 0.37).sin(),
+                (i as f32 * 0.71).cos(),
+                0.1 * i as f32 - 2.5,
+            );
+            assert!((a.value(p) - b.value(p)).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn a_moved_shape_re_meshes_only_near_its_old_and_new_places() {
+        let mut layers = Layers::new(starter()).unwrap();
+        let a = layers.field_at(Vec3::splat(HALF));
+        let old = layers.reach(4).unwrap();
+        let mut moved = layers.list().to_vec();
+        moved[4].translate.x -= 0.3;
+        let change = layers.edit(moved).unwrap();
+        let new = layers.reach(4).unwrap();
+        assert_eq!(change.regions, Some(vec![old, new]));
+        // Outside both spheres the scene's inside / outside is unchanged (its
+        // values may differ deep inside the solid, where a difference's distance
+        // to the moved shape still counts, but no crossing moves there), and the
+        // surface itself is unchanged: where one field is on it, so is the other.
+        let b = layers.field_at(Vec3::splat(HALF));
+        let mut checked = 0;
+        for i in 0..4000 {
+            let p = Vec3::new(
+                (i as f32 * 0.173).sin(),
+                (i as f32 * 0.311).cos(),
+                (i as f32 * 0.097).sin(),
+            ) * HALF;
+            if p.distance(old.0) > old.1 && p.distance(new.0) > new.1 {
+                let q = p + Vec3::splat(HALF); // the volume's local space
+                let (fa, fb) = (a.value(q), b.value(q));
+                assert_eq!(fa < 0.0, fb < 0.0, "{p}: {fa} vs {fb}");
+                if fa.abs() < 0.05 {
+                    assert!((fa - fb).abs() < 1e-5, "{p}: {fa} vs {fb} near the surface");
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 500, "{checked}");
+    }
+
+    #[test]
+    fn inserting_or_removing_one_layer_touches_only_that_layer() {
+        let mut layers = Layers::new(starter()).unwrap();
+        let gone = layers.reach(2).unwrap();
+        let mut list = layers.list().to_vec();
+        list.remove(2);
+        assert_eq!(layers.edit(list).unwrap().regions, Some(vec![gone]));
+        // Undo puts it back: the same region.
+        assert_eq!(layers.undo().unwrap().regions, Some(vec![gone]));
+        assert_eq!(layers.list(), &starter()[..]);
+        // Two layers swapped and one removed: everywhere.
+        let mut list = starter();
+        list.swap(0, 1);
+        list.pop();
+        assert_eq!(layers.edit(list).unwrap().regions, None);
+        // Nothing changed: nowhere.
+        let same = layers.list().to_vec();
+        assert_eq!(layers.edit(same).unwrap().regions, Some(vec![]));
+    }
+
+    #[test]
+    fn undo_and_redo_walk_the_history_and_a_drag_is_one_step() {
+        let mut layers = Layers::new(starter()).unwrap();
+        assert!(!layers.can_undo() && !layers.can_redo());
+        assert!(layers.undo().is_none());
+        let step = |layers: &Layers, dx: f32| {
+            let mut l = layers.list().to_vec();
+            l[1].translate.x += dx;
+            l
+        };
+        layers.edit(step(&layers, 0.1)).unwrap();
+        for _ in 0..5 {
+            layers.continue_edit(step(&layers, 0.1)).unwrap();
+        }
+        let dragged = layers.list().to_vec();
+        layers.undo().unwrap();
+        assert_eq!(layers.list(), &starter()[..]);
+        assert!(!layers.can_undo() && layers.can_redo());
+        layers.redo().unwrap();
+        assert_eq!(layers.list(), &dragged[..]);
+        // A new edit forgets what was undone.
+        layers.undo().unwrap();
+        layers.edit(step(&layers, -0.2)).unwrap();
+        assert!(!layers.can_redo());
+        // An impossible edit changes nothing.
+        let mut bad = layers.list().to_vec();
+        bad[0].scale = -1.0;
+        let before = layers.list().to_vec();
+        assert!(layers.edit(bad).is_err());
+        assert_eq!(layers.list(), &before[..]);
+        // The history is bounded.
+        for i in 0..UNDO_DEPTH + 10 {
+            layers.edit(step(&layers, 0.001 * i as f32)).unwrap();
+        }
+        let mut n = 0;
+        while layers.undo().is_some() {
+            n += 1;
+        }
+        assert_eq!(n, UNDO_DEPTH);
+    }
+
+    #[test]
+    fn picking_finds_the_nearest_layer_surface() {
+        let layers = Layers::new(vec![
+            Layer::new(Solid::Sphere, Operation::Union, 0.1, Vec3::ZERO, 1.0),
+            Layer::new(
+                Solid::Box,
+                Operation::Union,
+                0.1,
+                Vec3::new(0.0, 0.0, 2.0),
+                1.0,
+            ),
+        ])
+        .unwrap();
+        let from_front = layers.pick(Vec3::new(0.0, 0.0, 5.0), -Vec3::Z, 50.0, 0.05);
+        assert_eq!(from_front, Some(1));
+        let from_back = layers.pick(Vec3::new(0.0, 0.0, -5.0), Vec3::Z, 50.0, 0.05);
+        assert_eq!(from_back, Some(0));
+        assert_eq!(
+            layers.pick(Vec3::new(0.0, 5.0, 0.0), Vec3::X, 50.0, 0.05),
+            None
+        );
+        // An empty list is a valid (far away) scene.
+        assert!(Layers::new(Vec::new()).unwrap().reach(0).is_none());
+    }
+}
