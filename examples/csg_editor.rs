@@ -20,7 +20,7 @@ mod common;
 
 use bevy::prelude::*;
 use bevy_kdcontour::kdcontour::field::layers::{self, Change, Layer, Layers, Operation, Solid};
-use bevy_kdcontour::kdcontour::{Field, SceneError};
+use bevy_kdcontour::kdcontour::{self, Field};
 use bevy_kdcontour::panel::bevy_egui::{egui, EguiContexts, EguiPrimaryContextPass};
 use bevy_kdcontour::panel::{KdContourPanel, KdContourPanelPlugin};
 use bevy_kdcontour::prelude::*;
@@ -168,7 +168,7 @@ fn count_rebuilt(
 /// change reaches; an impossible change is refused and shown.
 fn apply(
     editor: &mut Editor,
-    change: Result<Change, SceneError>,
+    change: Result<Change, kdcontour::Error>,
     replace: &mut MessageWriter<ReplaceField>,
 ) {
     let change = match change {
