@@ -302,13 +302,14 @@ fn editor_panel(
         .show(ctx, |ui| {
             let ed = &mut *editor;
             ui.horizontal(|ui| {
-                let undo = egui::Button::new("undo");
-                if ui.add_enabled(ed.layers.can_undo(), undo).clicked() {
-                    action = Some(Action::Undo);
-                }
-                let redo = egui::Button::new("redo");
-                if ui.add_enabled(ed.layers.can_redo(), redo).clicked() {
-                    action = Some(Action::Redo);
+                let history = [
+                    (ed.layers.can_undo(), "undo", Action::Undo),
+                    (ed.layers.can_redo(), "redo", Action::Redo),
+                ];
+                for (enabled, text, a) in history {
+                    if ui.add_enabled(enabled, egui::Button::new(text)).clicked() {
+                        action = Some(a);
+                    }
                 }
                 if ui.button("save").clicked() {
                     action = Some(Action::Save);

@@ -2,10 +2,11 @@
 //! a primitive (or an imported subtree) with its own translation and uniform scale,
 //! combined with everything before it by an [`Operation`].
 //!
-//! [`Layers`] holds the list, each layer's compiled field and bounds, and an undo /
-//! redo history. It compiles a layer once per change, saves and loads the JSON scene
-//! format (a left fold of the layers, see [`CsgNode`]) and says which region of
-//! space a change can reach ([`Change::regions`]), so only the chunks there need
+//! [`to_json`] and [`from_json`] save and load a list as the JSON scene format (a
+//! left fold of the layers, see [`CsgNode`] and `scenes/README.md`). [`Layers`]
+//! holds the list being edited, each layer's compiled field and bounds (compiled
+//! once per change), and an undo / redo history; each change says which region of
+//! space it can reach ([`Change::regions`]), so only the chunks there need
 //! re-meshing. Selection is the caller's.
 
 use super::csg::CsgNode;
