@@ -5,6 +5,7 @@
 //! [`terrain`] builds height-field and 3-D density terrain from the `noise` crate.
 
 pub mod csg;
+pub mod layers;
 pub mod mesh_sdf;
 pub mod sdf;
 pub mod terrain;
