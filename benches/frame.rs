@@ -3,8 +3,8 @@
 //!
 //! `cargo bench -p bevy_kdcontour --bench frame`
 
-use bevy::mesh::MeshPlugin;
 use bevy::prelude::*;
+use bevy_kdcontour::headless::{run_until_settled, HeadlessPlugins};
 use bevy_kdcontour::prelude::*;
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::sync::Arc;
@@ -13,11 +13,8 @@ use std::time::Duration;
 fn frame(c: &mut Criterion) {
     let mut app = App::new();
     app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin::default(),
-        MeshPlugin,
-        TransformPlugin,
-        KdContourPlugin {
+        HeadlessPlugins,
+        KdContourPlugins {
             settings: KdContourSettings {
                 lod: LodSettings {
                     near: 0.2,
@@ -39,16 +36,10 @@ fn frame(c: &mut Criterion) {
         .world_mut()
         .spawn((LodCamera, Transform::from_xyz(1.0, 1.0, -1.0)))
         .id();
-    for _ in 0..20_000 {
-        app.update();
-        if app
-            .world()
-            .get::<VolumeState>(volume)
-            .is_some_and(|s| s.is_settled())
-        {
-            break;
-        }
-    }
+    assert!(
+        run_until_settled(&mut app, volume, 20_000, Duration::ZERO),
+        "the volume did not settle"
+    );
     let mut t = 0.0f32;
     let mut g = c.benchmark_group("frame_1000_chunks");
     g.sample_size(50).measurement_time(Duration::from_secs(5));

@@ -1,10 +1,11 @@
-//! The plugin in a headless app (MinimalPlugins, AssetPlugin, MeshPlugin,
-//! TransformPlugin): volumes mesh, edits rebuild exactly what they touch, nothing is
+//! The plugin in a headless app (`HeadlessPlugins`: MinimalPlugins, AssetPlugin,
+//! MeshPlugin, TransformPlugin): volumes mesh, edits rebuild exactly what they touch, nothing is
 //! lost under a stream of edits and camera moves, LOD never re-samples, and a
 //! panicking field is reported without taking the app down.
 
-use bevy::mesh::{MeshPlugin, VertexAttributeValues};
+use bevy::mesh::VertexAttributeValues;
 use bevy::prelude::*;
+use bevy_kdcontour::headless::{run_until_settled, HeadlessPlugins};
 use bevy_kdcontour::prelude::*;
 use kdcontour::edit::EditedField;
 use kdcontour::{ChunkWorld, CsgNode, Field, IndexedMesh};
@@ -14,11 +15,8 @@ use std::sync::Arc;
 fn app(lod: bool) -> App {
     let mut app = App::new();
     app.add_plugins((
-        MinimalPlugins,
-        AssetPlugin::default(),
-        MeshPlugin,
-        TransformPlugin,
-        KdContourPlugin {
+        HeadlessPlugins,
+        KdContourPlugins {
             settings: KdContourSettings {
                 lod: LodSettings {
                     enabled: lod,
@@ -53,20 +51,11 @@ fn spawn(app: &mut App, field: Arc<dyn Field>) -> Entity {
 }
 
 fn settle(app: &mut App, volume: Entity) {
-    for _ in 0..5000 {
-        app.update();
-        if app
-            .world()
-            .get::<VolumeState>(volume)
-            .is_some_and(|s| s.is_settled())
-        {
-            // One more frame so the last uploads' commands are applied.
-            app.update();
-            return;
-        }
-        std::thread::sleep(std::time::Duration::from_micros(200));
-    }
-    panic!("the volume did not settle");
+    let pause = std::time::Duration::from_micros(200);
+    assert!(
+        run_until_settled(app, volume, 5000, pause),
+        "the volume did not settle"
+    );
 }
 
 /// The mesh a chunk entity shows, as positions and indices.
@@ -442,4 +431,64 @@ fn bad_streaming_settings_are_reported_and_skipped() {
         app.world().get::<KdVolume>(v).is_none(),
         "the bad volume is removed"
     );
+}
+
+#[test]
+fn the_single_plugin_of_before_the_split_still_meshes_the_same() {
+    let mut app = App::new();
+    app.add_plugins((HeadlessPlugins, KdContourPlugin::default()));
+    let v = spawn(&mut app, torus());
+    settle(&mut app, v);
+    assert_matches_fresh(&app, v, &*torus());
+}
+
+#[test]
+fn a_subsystem_can_be_left_out() {
+    // Without the LOD subsystem a camera right next to the volume changes no
+    // threshold: every chunk keeps the default one, and still meshes.
+    let mut app = App::new();
+    app.add_plugins((
+        HeadlessPlugins,
+        KdContourPlugins::default()
+            .build()
+            .disable::<bevy_kdcontour::LodPlugin>(),
+    ));
+    app.world_mut()
+        .spawn((LodCamera, Transform::from_xyz(0.0, 0.0, 0.0)));
+    let v = spawn(&mut app, torus());
+    settle(&mut app, v);
+    let default = KdContourSettings::default().default_threshold;
+    let state = app.world().get::<VolumeState>(v).unwrap();
+    for c in state.world().coords() {
+        assert_eq!(state.world().threshold(c), default, "chunk {c}");
+    }
+    assert_matches_fresh(&app, v, &*torus());
+    // With it, the same camera sets other thresholds.
+    let mut app = self::app(true);
+    app.world_mut()
+        .spawn((LodCamera, Transform::from_xyz(0.0, 0.0, 0.0)));
+    let v = spawn(&mut app, torus());
+    settle(&mut app, v);
+    let state = app.world().get::<VolumeState>(v).unwrap();
+    assert!(state
+        .world()
+        .coords()
+        .iter()
+        .any(|&c| state.world().threshold(c) != default));
+}
+
+#[test]
+fn main_thread_time_and_counts_are_published_every_frame() {
+    let mut app = app(false);
+    let v = spawn(&mut app, torus());
+    app.update();
+    let stats = app.world().resource::<KdContourStats>().clone();
+    assert_eq!(stats.chunks, 27);
+    assert!(stats.main_thread_ms > 0.0, "{stats:?}");
+    assert!(stats.tasks_in_flight + stats.queued > 0, "{stats:?}");
+    settle(&mut app, v);
+    let stats = app.world().resource::<KdContourStats>().clone();
+    assert_eq!((stats.tasks_in_flight, stats.queued), (0, 0));
+    assert!(stats.builds >= 27 && stats.meshed_chunks > 0, "{stats:?}");
+    assert!(stats.main_thread_ms > 0.0 && stats.main_thread_ms < 1000.0);
 }

@@ -1,0 +1,51 @@
+//! Running without a renderer or a window, as a game server or a test does:
+//! [`HeadlessPlugins`] is Bevy's `MinimalPlugins` plus the asset, mesh and
+//! transform plugins the meshing needs, and [`run_until_settled`] steps an app
+//! until a volume's meshing is done.
+
+use crate::state::VolumeState;
+use bevy::app::PluginGroupBuilder;
+use bevy::mesh::MeshPlugin;
+use bevy::prelude::*;
+
+/// `MinimalPlugins`, `AssetPlugin`, `MeshPlugin` and `TransformPlugin`: what
+/// [`crate::KdContourPlugins`] needs when there is no renderer. Add the
+/// plugins after these.
+pub struct HeadlessPlugins;
+
+impl PluginGroup for HeadlessPlugins {
+    fn build(self) -> PluginGroupBuilder {
+        PluginGroupBuilder::start::<Self>()
+            .add_group(MinimalPlugins)
+            .add(AssetPlugin::default())
+            .add(MeshPlugin)
+            .add(TransformPlugin)
+    }
+}
+
+/// Updates `app` until `volume` has no meshing work queued, running or waiting
+/// for upload, then once more so the last uploads' commands apply; at most
+/// `max_frames` updates, sleeping `pause` between them (tasks run on other
+/// threads). Returns whether it settled.
+pub fn run_until_settled(
+    app: &mut App,
+    volume: Entity,
+    max_frames: usize,
+    pause: std::time::Duration,
+) -> bool {
+    for _ in 0..max_frames {
+        app.update();
+        if app
+            .world()
+            .get::<VolumeState>(volume)
+            .is_some_and(|s| s.is_settled())
+        {
+            app.update();
+            return true;
+        }
+        if !pause.is_zero() {
+            std::thread::sleep(pause);
+        }
+    }
+    false
+}

@@ -1,0 +1,70 @@
+//! Camera-driven level of detail: [`LodPlugin`] sets each chunk's threshold
+//! from its distance to the [`LodCamera`] on the curve of
+//! [`crate::LodSettings`], with hysteresis, and queues a re-cut of the retained
+//! tree (never a re-sample) where it changed (in [`KdContourSystems::Lod`]).
+
+use crate::messages::LodChanged;
+use crate::settings::KdContourSettings;
+use crate::state::VolumeState;
+use crate::stats::MainThreadClock;
+use crate::volume::{lod_camera, LodCamera};
+use crate::KdContourSystems;
+use bevy::prelude::*;
+
+/// Sets chunk thresholds from the camera.
+pub struct LodPlugin;
+
+impl Plugin for LodPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<MainThreadClock>()
+            .init_resource::<KdContourSettings>()
+            .add_systems(PostUpdate, update_lod.in_set(KdContourSystems::Lod));
+    }
+}
+
+pub(crate) fn update_lod(
+    settings: Res<KdContourSettings>,
+    clock: Res<MainThreadClock>,
+    camera: Query<&GlobalTransform, With<LodCamera>>,
+    mut volumes: Query<(Entity, &GlobalTransform, &mut VolumeState)>,
+    mut changed: MessageWriter<LodChanged>,
+) {
+    let _time = clock.measure();
+    let lod = &settings.lod;
+    // With LOD off every chunk follows `default_threshold` (when it changes).
+    let cam = if lod.enabled {
+        let Some(cam) = lod_camera(&camera) else {
+            return;
+        };
+        Some(cam)
+    } else if settings.is_changed() {
+        None
+    } else {
+        return;
+    };
+    let curve = lod.curve();
+    for (entity, vol_tf, mut state) in &mut volumes {
+        let local = cam.map(|c| vol_tf.affine().inverse().transform_point3(c));
+        for c in state.world().coords() {
+            let want = match local {
+                Some(p) => curve.threshold(state.distance(p, c)),
+                None => settings.default_threshold,
+            };
+            let have = state.world().threshold(c);
+            let differs = if local.is_some() && have > 0.0 && want > 0.0 {
+                (want / have).ln().abs() > (1.0 + lod.hysteresis).ln()
+            } else {
+                want != have
+            };
+            if differs {
+                state.world_mut().set_threshold(c, want);
+                state.mark_extract(c);
+                changed.write(LodChanged {
+                    volume: entity,
+                    coord: c,
+                    threshold: want,
+                });
+            }
+        }
+    }
+}

@@ -1,0 +1,61 @@
+//! [`KdContourPlugins`], the one line users add: every subsystem as its own
+//! plugin, so an app can replace or leave one out
+//! (`KdContourPlugins::default().build().disable::<StreamingPlugin>()`).
+
+use crate::edits::EditsPlugin;
+use crate::lod::LodPlugin;
+use crate::messages::MessagesPlugin;
+use crate::settings::{KdContourSettings, SettingsPlugin};
+use crate::stats::StatsPlugin;
+use crate::streaming::StreamingPlugin;
+use crate::tasks::TasksPlugin;
+use crate::upload::UploadPlugin;
+use crate::volume::VolumePlugin;
+use bevy::app::PluginGroupBuilder;
+use bevy::prelude::*;
+
+/// Chunked, LOD-driven meshing of [`crate::KdVolume`]s: settings, volumes and
+/// chunks, messages, edits, streaming, LOD, tasks, upload, stats, and (crate
+/// feature `debug`) LOD colouring.
+#[derive(Default)]
+pub struct KdContourPlugins {
+    /// Initial settings (copied into the [`KdContourSettings`] resource).
+    pub settings: KdContourSettings,
+}
+
+impl PluginGroup for KdContourPlugins {
+    fn build(self) -> PluginGroupBuilder {
+        let group = PluginGroupBuilder::start::<Self>()
+            .add(SettingsPlugin {
+                settings: self.settings,
+            })
+            .add(MessagesPlugin)
+            .add(StatsPlugin)
+            .add(VolumePlugin)
+            .add(EditsPlugin)
+            .add(StreamingPlugin)
+            .add(LodPlugin)
+            .add(TasksPlugin)
+            .add(UploadPlugin);
+        #[cfg(feature = "debug")]
+        let group = group.add(crate::debug::DebugPlugin);
+        group
+    }
+}
+
+/// The whole of [`KdContourPlugins`] as one plugin, as before the plugin was split
+/// into subsystems (`add_plugins(KdContourPlugin { settings })` keeps working).
+/// New code adds [`KdContourPlugins`], which lets a subsystem be replaced.
+#[derive(Default)]
+pub struct KdContourPlugin {
+    /// Initial settings (copied into the [`KdContourSettings`] resource).
+    pub settings: KdContourSettings,
+}
+
+impl Plugin for KdContourPlugin {
+    fn build(&self, app: &mut App) {
+        app.add_plugins(KdContourPlugins {
+            settings: self.settings.clone(),
+        });
+    }
+}

@@ -1,0 +1,143 @@
+//! What the plugin did, for panels and profiling: the [`KdContourStats`] resource,
+//! the [`MainThreadClock`] every system of the plugin times itself with, and
+//! [`StatsPlugin`], which totals both once a frame.
+
+use crate::state::VolumeState;
+use crate::volume::KdChunk;
+use crate::KdContourSystems;
+use bevy::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+/// What the plugin did, for panels and profiling (updated every frame).
+#[derive(Resource, Clone, Debug, Default, Reflect)]
+#[reflect(Resource)]
+pub struct KdContourStats {
+    /// Chunks of all volumes.
+    pub chunks: usize,
+    /// Chunks showing a mesh.
+    pub meshed_chunks: usize,
+    /// Triangles shown.
+    pub triangles: usize,
+    /// Builds and extractions running.
+    pub tasks_in_flight: usize,
+    /// Builds and extractions waiting for a slot.
+    pub queued: usize,
+    /// Chunk builds finished since start.
+    pub builds: u64,
+    /// Extractions finished since start.
+    pub extractions: u64,
+    /// Mean time of one chunk build (sample + tree), ms, over recent builds.
+    pub build_ms: f64,
+    /// Mean time of one chunk extraction (interior + owned seams), ms.
+    pub extract_ms: f64,
+    /// Main-thread time of the plugin's systems in the last frame, ms (mesh
+    /// upload included).
+    pub main_thread_ms: f64,
+    /// Smallest and largest chunk threshold in use.
+    pub threshold_range: (f32, f32),
+}
+
+impl KdContourStats {
+    /// Folds one build's time into [`KdContourStats::build_ms`].
+    pub(crate) fn record_build(&mut self, ms: f64) {
+        self.builds += 1;
+        ema(&mut self.build_ms, ms, self.builds);
+    }
+
+    /// Folds one extraction's time into [`KdContourStats::extract_ms`].
+    pub(crate) fn record_extraction(&mut self, ms: f64) {
+        self.extractions += 1;
+        ema(&mut self.extract_ms, ms, self.extractions);
+    }
+}
+
+/// Moving average over about the last 32 samples.
+fn ema(avg: &mut f64, x: f64, n: u64) {
+    let k = 1.0 / (n.min(32) as f64);
+    *avg += (x - *avg) * k;
+}
+
+/// The main-thread time the plugin's systems spent this frame. Every system
+/// starts with `let _time = clock.measure();`: the guard adds the system's
+/// time when it drops, early returns included, and systems that only read the
+/// clock can still run in parallel. [`StatsPlugin`] publishes the sum as
+/// [`KdContourStats::main_thread_ms`] at the end of the frame and starts over.
+#[derive(Resource, Default, Debug)]
+pub struct MainThreadClock {
+    nanos: AtomicU64,
+}
+
+impl MainThreadClock {
+    /// Starts timing; the time counts when the returned guard drops.
+    pub fn measure(&self) -> Measure<'_> {
+        Measure {
+            clock: self,
+            start: Instant::now(),
+        }
+    }
+
+    /// The time summed since the last call, in ms, and a fresh start.
+    fn take_ms(&self) -> f64 {
+        self.nanos.swap(0, Ordering::Relaxed) as f64 * 1e-6
+    }
+}
+
+/// Adds the time since [`MainThreadClock::measure`] to the clock when dropped.
+pub struct Measure<'a> {
+    clock: &'a MainThreadClock,
+    start: Instant,
+}
+
+impl Drop for Measure<'_> {
+    fn drop(&mut self) {
+        let ns = self.start.elapsed().as_nanos().min(u64::MAX as u128) as u64;
+        self.clock.nanos.fetch_add(ns, Ordering::Relaxed);
+    }
+}
+
+/// Keeps [`KdContourStats`] up to date (in [`KdContourSystems::Stats`]).
+pub struct StatsPlugin;
+
+impl Plugin for StatsPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<KdContourStats>()
+            .init_resource::<MainThreadClock>()
+            .register_type::<KdContourStats>()
+            .add_systems(PostUpdate, gather_stats.in_set(KdContourSystems::Stats));
+    }
+}
+
+/// Totals for [`KdContourStats`], and the frame's main-thread time.
+fn gather_stats(
+    clock: Res<MainThreadClock>,
+    mut stats: ResMut<KdContourStats>,
+    volumes: Query<&VolumeState>,
+    chunks: Query<&KdChunk>,
+) {
+    let time = clock.measure();
+    let (mut n, mut running, mut queued) = (0, 0, 0);
+    for state in &volumes {
+        let work = state.work_counts();
+        n += state.world().len();
+        running += work.running;
+        queued += work.queued;
+    }
+    let (mut meshed, mut tris) = (0, 0);
+    let mut range = (f32::INFINITY, f32::NEG_INFINITY);
+    for chunk in &chunks {
+        if chunk.triangles > 0 {
+            meshed += 1;
+            tris += chunk.triangles;
+            range = (range.0.min(chunk.threshold), range.1.max(chunk.threshold));
+        }
+    }
+    stats.chunks = n;
+    stats.meshed_chunks = meshed;
+    stats.triangles = tris;
+    stats.tasks_in_flight = running;
+    stats.queued = queued;
+    stats.threshold_range = if meshed > 0 { range } else { (0.0, 0.0) };
+    drop(time);
+    stats.main_thread_ms = clock.take_ms();
+}

@@ -1,0 +1,80 @@
+//! Streaming: [`StreamingPlugin`] loads the chunks of unbounded volumes
+//! ([`crate::KdVolume::streaming`]) around the [`LodCamera`], nearest first, and
+//! drops those left behind; for every volume it also points scheduling at the
+//! camera (in [`KdContourSystems::Lod`], before thresholds are set).
+
+use crate::lod::update_lod;
+use crate::settings::KdContourSettings;
+use crate::state::VolumeState;
+use crate::stats::MainThreadClock;
+use crate::volume::{lod_camera, KdVolume, LodCamera, VolumeExtent};
+use crate::KdContourSystems;
+use bevy::prelude::*;
+
+/// Streams chunks around the camera.
+pub struct StreamingPlugin;
+
+impl Plugin for StreamingPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<MainThreadClock>()
+            .init_resource::<KdContourSettings>()
+            .add_systems(
+                PostUpdate,
+                stream_chunks
+                    .in_set(KdContourSystems::Lod)
+                    .before(update_lod),
+            );
+    }
+}
+
+/// Loads and drops the chunks of streaming volumes around the camera (around the
+/// volume's origin when there is no [`LodCamera`]), and points every volume's
+/// scheduling at the camera.
+fn stream_chunks(
+    mut commands: Commands,
+    settings: Res<KdContourSettings>,
+    clock: Res<MainThreadClock>,
+    camera: Query<&GlobalTransform, With<LodCamera>>,
+    mut volumes: Query<(Entity, &KdVolume, &GlobalTransform, &mut VolumeState)>,
+) {
+    let _time = clock.measure();
+    let cam = lod_camera(&camera);
+    for (entity, vol, vol_tf, mut state) in &mut volumes {
+        let state = &mut *state;
+        let local = cam
+            .map(|c| vol_tf.affine().inverse().transform_point3(c))
+            .unwrap_or(Vec3::ZERO);
+        state.focus = local;
+        let VolumeExtent::Streaming {
+            view_distance,
+            min_y,
+            max_y,
+        } = vol.extent
+        else {
+            continue;
+        };
+        let key = (
+            state.world().chunk_at(local),
+            view_distance.to_bits(),
+            min_y,
+            max_y,
+        );
+        if state.stream_key == Some(key) {
+            continue; // the camera is in the same chunk as last time
+        }
+        state.stream_key = Some(key);
+        let side = state.world().chunk_res as f32 * state.world().cell_size;
+        let rows = min_y..=max_y;
+        // Drop what is out of range (with one chunk side of slack) first.
+        for c in state.world().coords() {
+            if !rows.contains(&c.y) || state.distance(local, c) > view_distance + side {
+                state.unload(&mut commands, c);
+            }
+        }
+        for c in state.world().chunks_near(local, view_distance) {
+            if rows.contains(&c.y) {
+                state.load(&mut commands, entity, c, settings.default_threshold);
+            }
+        }
+    }
+}

@@ -1,0 +1,224 @@
+//! Meshing tasks: [`TasksPlugin`] starts chunk builds (sample, Hermite data,
+//! retained tree) and extractions (interior plus owned seams at the chunk's
+//! threshold) on [`AsyncComputeTaskPool`], nearest the camera first and at most
+//! [`KdContourSettings::max_tasks_in_flight`] at once (in
+//! [`KdContourSystems::Schedule`]), and collects them with `check_ready` (in
+//! [`KdContourSystems::Poll`]): a result from an older field or threshold is
+//! dropped, and a panic inside a build is reported as [`ChunkFailed`].
+
+use crate::messages::ChunkFailed;
+use crate::settings::KdContourSettings;
+use crate::state::VolumeState;
+use crate::stats::{KdContourStats, MainThreadClock};
+use crate::volume::{ChunkStatus, KdChunk};
+use crate::KdContourSystems;
+use bevy::prelude::*;
+use bevy::tasks::{futures::check_ready, AsyncComputeTaskPool};
+use kdcontour::{IndexedMesh, KdTree};
+
+/// A finished build.
+pub(crate) struct BuildOut {
+    generation: u64,
+    result: Result<KdTree, String>,
+    ms: f64,
+}
+
+/// A finished extraction.
+pub(crate) struct ExtractOut {
+    stamp: u64,
+    threshold: f32,
+    mesh: IndexedMesh,
+    ms: f64,
+}
+
+/// Starts and collects meshing tasks.
+pub struct TasksPlugin;
+
+impl Plugin for TasksPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<MainThreadClock>()
+            .init_resource::<KdContourStats>()
+            .init_resource::<KdContourSettings>()
+            .add_systems(
+                PostUpdate,
+                (
+                    schedule_tasks.in_set(KdContourSystems::Schedule),
+                    poll_tasks.in_set(KdContourSystems::Poll),
+                ),
+            );
+    }
+}
+
+/// The two kinds of chunk work, in the order they are scheduled.
+#[derive(Clone, Copy)]
+enum Work {
+    /// Cheap (well under a millisecond) and shows built chunks at once; seams to
+    /// neighbours not built yet are re-cut when those land.
+    Extract,
+    Build,
+}
+
+impl VolumeState {
+    /// Chunks waiting for `work` that can start now, nearest the camera first
+    /// (ties in a fixed order, so runs are reproducible).
+    fn waiting(&self, work: Work) -> Vec<IVec3> {
+        let mut v: Vec<IVec3> = self
+            .slots
+            .iter()
+            .filter(|(_, s)| match work {
+                // Not while a build of the chunk is queued or running: its tree
+                // is about to change.
+                Work::Extract => s.need_extract && s.building.is_none() && !s.need_build,
+                Work::Build => s.need_build && s.building.is_none(),
+            })
+            .map(|(c, _)| *c)
+            .collect();
+        self.nearest_first(&mut v);
+        v
+    }
+
+    /// Starts `work` on chunk `c`; false when no task was needed.
+    fn start(&mut self, work: Work, c: IVec3) -> bool {
+        let pool = AsyncComputeTaskPool::get();
+        match work {
+            Work::Extract => {
+                let threshold = self.world().threshold(c);
+                let snapshot = self.world().snapshot(c);
+                let slot = self.slots.get_mut(&c).expect("listed");
+                slot.need_extract = false;
+                let Some(snapshot) = snapshot else {
+                    // No tree (no surface yet, or its build failed): show nothing.
+                    slot.extracting = None;
+                    slot.ready = Some((threshold, IndexedMesh::default()));
+                    return false;
+                };
+                let stamp = slot.extract_stamp;
+                // A newer extraction replaces a running one: dropping its task
+                // cancels it (its stamp would be stale anyway).
+                slot.extracting = Some(pool.spawn(async move {
+                    let t = std::time::Instant::now();
+                    let mut mesh = IndexedMesh::default();
+                    snapshot.extract(&mut mesh);
+                    ExtractOut {
+                        stamp,
+                        threshold,
+                        mesh,
+                        ms: t.elapsed().as_secs_f64() * 1e3,
+                    }
+                }));
+            }
+            Work::Build => {
+                let job = self.world().chunk_build(c);
+                let field = self.field().clone();
+                let slot = self.slots.get_mut(&c).expect("listed");
+                slot.need_build = false;
+                let generation = slot.build_gen;
+                slot.building = Some(pool.spawn(async move {
+                    let t = std::time::Instant::now();
+                    let result =
+                        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job.run(&field)))
+                            .map_err(|p| format!("the field panicked: {}", panic_message(&*p)))
+                            .and_then(|r| r.map_err(|e| e.to_string()));
+                    BuildOut {
+                        generation,
+                        result,
+                        ms: t.elapsed().as_secs_f64() * 1e3,
+                    }
+                }));
+            }
+        }
+        true
+    }
+}
+
+/// The text of a caught panic.
+fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
+    p.downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| p.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into())
+}
+
+fn schedule_tasks(
+    settings: Res<KdContourSettings>,
+    clock: Res<MainThreadClock>,
+    mut volumes: Query<&mut VolumeState>,
+    mut chunks: Query<&mut KdChunk>,
+) {
+    let _time = clock.measure();
+    let mut in_flight: usize = volumes.iter().map(|s| s.work_counts().running).sum();
+    for mut state in &mut volumes {
+        for work in [Work::Extract, Work::Build] {
+            for c in state.waiting(work) {
+                if in_flight >= settings.max_tasks_in_flight {
+                    return;
+                }
+                if !state.start(work, c) {
+                    continue;
+                }
+                in_flight += 1;
+                if let (Work::Build, Some(mut ch)) = (
+                    work,
+                    state.chunk_entity(c).and_then(|e| chunks.get_mut(e).ok()),
+                ) {
+                    ch.status = ChunkStatus::Busy;
+                }
+            }
+        }
+    }
+}
+
+fn poll_tasks(
+    clock: Res<MainThreadClock>,
+    mut stats: ResMut<KdContourStats>,
+    mut volumes: Query<(Entity, &mut VolumeState)>,
+    mut chunks: Query<&mut KdChunk>,
+    mut failed: MessageWriter<ChunkFailed>,
+) {
+    let _time = clock.measure();
+    for (entity, mut state) in &mut volumes {
+        let state = &mut *state;
+        // Builds first: a new tree queues new extractions, so an extraction
+        // of the old tree that lands in the same frame is dropped below.
+        let mut built = Vec::new();
+        for (&c, slot) in state.slots.iter_mut() {
+            if let Some(out) = slot.building.as_mut().and_then(check_ready) {
+                slot.building = None;
+                stats.record_build(out.ms);
+                // An edit that came after this build started queued a newer one.
+                if out.generation == slot.build_gen {
+                    built.push((c, out.result));
+                }
+            }
+        }
+        built.sort_by_key(|(c, _)| (c.z, c.y, c.x));
+        for (c, result) in built {
+            match result {
+                Ok(tree) => state.world_mut().insert_tree(c, tree),
+                Err(error) => {
+                    error!("chunk {c} of volume {entity}: {error}");
+                    state.world_mut().remove_tree(c);
+                    if let Some(mut ch) = state.chunk_entity(c).and_then(|e| chunks.get_mut(e).ok())
+                    {
+                        ch.status = ChunkStatus::Failed(error.clone());
+                    }
+                    failed.write(ChunkFailed {
+                        volume: entity,
+                        coord: c,
+                        error,
+                    });
+                }
+            }
+            state.mark_extract(c);
+        }
+        for slot in state.slots.values_mut() {
+            if let Some(out) = slot.extracting.as_mut().and_then(check_ready) {
+                slot.extracting = None;
+                stats.record_extraction(out.ms);
+                if out.stamp == slot.extract_stamp {
+                    slot.ready = Some((out.threshold, out.mesh));
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,328 @@
+//! Volumes and their chunks: the [`KdVolume`] and [`KdChunk`] components, the
+//! [`LodCamera`] marker, and [`VolumePlugin`], which gives every new volume its
+//! [`VolumeState`] and rebuilds a volume whose field or iso level changed. It
+//! also orders [`KdContourSystems`], the sets every other subsystem runs in.
+
+use crate::settings::KdContourSettings;
+use crate::state::VolumeState;
+use crate::stats::MainThreadClock;
+use crate::KdContourSystems;
+use bevy::prelude::*;
+use bevy::transform::TransformSystems;
+use kdcontour::edit::EditedField;
+use kdcontour::{ChunkWorld, Field};
+use std::sync::Arc;
+
+/// A field shared with meshing tasks.
+#[derive(Clone)]
+pub struct SharedField(pub Arc<dyn Field>);
+
+impl Default for SharedField {
+    /// Empty space (no surface).
+    fn default() -> Self {
+        SharedField(Arc::new(kdcontour::field::FnField(|_| 1.0)))
+    }
+}
+
+/// Which chunks a volume has.
+#[derive(Clone, Debug, PartialEq, Reflect)]
+pub enum VolumeExtent {
+    /// A fixed block of X x Y x Z chunks, from chunk (0, 0, 0).
+    Bounded {
+        /// Chunks along x, y, z.
+        chunks: UVec3,
+    },
+    /// Unbounded: the chunks whose box comes within `view_distance` of the
+    /// [`LodCamera`] are loaded, nearest first; a chunk is dropped once its box is
+    /// more than `view_distance` plus one chunk side away (so chunks at the edge do
+    /// not load and unload every frame). Chunk rows are limited to
+    /// `min_y..=max_y` (terrain has nothing far above or below).
+    Streaming {
+        /// Load radius around the camera (local units).
+        view_distance: f32,
+        /// Lowest chunk row.
+        min_y: i32,
+        /// Highest chunk row.
+        max_y: i32,
+    },
+}
+
+/// A volume of chunks of `chunk_res`³ cells of side `cell_size`, sampled from
+/// `field` in the entity's local space (lattice corner (0, 0, 0) at the entity's
+/// origin): a bounded block ([`KdVolume::new`]) or unbounded terrain streamed
+/// around the camera ([`KdVolume::streaming`]). Its chunks are spawned as children.
+#[derive(Component, Clone, Reflect)]
+#[reflect(Component)]
+#[require(Transform, Visibility)]
+pub struct KdVolume {
+    /// The field (negative inside).
+    #[reflect(ignore)]
+    pub field: SharedField,
+    /// Which chunks exist.
+    pub extent: VolumeExtent,
+    /// Cells per chunk along each axis.
+    pub chunk_res: u32,
+    /// Side of one cell (local units).
+    pub cell_size: f32,
+    /// The level of the field that is the surface (0 for signed distances; a
+    /// density or intensity threshold for scans). Changing it rebuilds every chunk.
+    pub iso: f32,
+    /// Material of the chunk meshes.
+    pub material: Handle<StandardMaterial>,
+}
+
+impl KdVolume {
+    /// A bounded volume of `chunks` chunks, with the default material.
+    pub fn new(field: Arc<dyn Field>, chunks: UVec3, chunk_res: u32, cell_size: f32) -> Self {
+        KdVolume {
+            field: SharedField(field),
+            extent: VolumeExtent::Bounded { chunks },
+            chunk_res,
+            cell_size,
+            iso: 0.0,
+            material: Handle::default(),
+        }
+    }
+
+    /// An unbounded volume streamed within `view_distance` of the camera, chunk
+    /// rows -2 to 1 (change them with [`KdVolume::with_rows`]).
+    pub fn streaming(
+        field: Arc<dyn Field>,
+        chunk_res: u32,
+        cell_size: f32,
+        view_distance: f32,
+    ) -> Self {
+        KdVolume {
+            field: SharedField(field),
+            extent: VolumeExtent::Streaming {
+                view_distance,
+                min_y: -2,
+                max_y: 1,
+            },
+            chunk_res,
+            cell_size,
+            iso: 0.0,
+            material: Handle::default(),
+        }
+    }
+
+    /// The same volume with its surface at level `iso` of the field.
+    pub fn with_iso(mut self, iso: f32) -> Self {
+        self.iso = iso;
+        self
+    }
+
+    /// A streaming volume limited to chunk rows `min_y..=max_y` (no effect on a
+    /// bounded one).
+    pub fn with_rows(mut self, min_y: i32, max_y: i32) -> Self {
+        if let VolumeExtent::Streaming {
+            min_y: lo,
+            max_y: hi,
+            ..
+        } = &mut self.extent
+        {
+            (*lo, *hi) = (min_y, max_y);
+        }
+        self
+    }
+
+    /// The same volume with `material`.
+    pub fn with_material(mut self, material: Handle<StandardMaterial>) -> Self {
+        self.material = material;
+        self
+    }
+
+    /// The field this volume meshes: its field at its iso level.
+    pub(crate) fn shifted(field: &Arc<dyn Field>, iso: f32) -> Arc<dyn Field> {
+        if iso == 0.0 {
+            field.clone()
+        } else {
+            Arc::new(kdcontour::field::IsoShift {
+                inner: field.clone(),
+                iso,
+            })
+        }
+    }
+}
+
+/// What a chunk is doing.
+#[derive(Clone, Debug, Default, PartialEq, Reflect)]
+pub enum ChunkStatus {
+    /// Waiting for its first build.
+    #[default]
+    Pending,
+    /// A build or extraction is queued or running.
+    Busy,
+    /// Shows a mesh.
+    Meshed,
+    /// Has no surface.
+    Empty,
+    /// Its last build failed (the message says why); an edit retries it.
+    Failed(String),
+}
+
+/// One chunk of a [`KdVolume`] (a child entity).
+#[derive(Component, Clone, Debug, Reflect)]
+#[reflect(Component)]
+pub struct KdChunk {
+    /// The volume it belongs to.
+    pub volume: Entity,
+    /// Its chunk coordinates.
+    pub coord: IVec3,
+    /// The threshold of the mesh it shows.
+    pub threshold: f32,
+    /// Triangles in the mesh it shows.
+    pub triangles: usize,
+    /// What it is doing.
+    pub status: ChunkStatus,
+}
+
+/// Marks the camera whose distance sets chunk thresholds (the first one found).
+#[derive(Component, Clone, Copy, Debug, Default, Reflect)]
+#[reflect(Component)]
+pub struct LodCamera;
+
+/// The camera position, if there is a [`LodCamera`].
+pub(crate) fn lod_camera(camera: &Query<&GlobalTransform, With<LodCamera>>) -> Option<Vec3> {
+    camera.iter().next().map(|t| t.translation())
+}
+
+/// Orders [`KdContourSystems`], registers the volume and chunk types, gives new
+/// volumes a [`VolumeState`] (in [`KdContourSystems::Edits`], first) and
+/// rebuilds a volume whose field or iso changed.
+pub struct VolumePlugin;
+
+impl Plugin for VolumePlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<KdContourSettings>()
+            .init_resource::<MainThreadClock>()
+            .register_type::<KdVolume>()
+            .register_type::<VolumeExtent>()
+            .register_type::<KdChunk>()
+            .register_type::<ChunkStatus>()
+            .register_type::<LodCamera>()
+            .configure_sets(
+                PostUpdate,
+                (
+                    KdContourSystems::Edits,
+                    KdContourSystems::Lod,
+                    KdContourSystems::Schedule,
+                    KdContourSystems::Poll,
+                    KdContourSystems::Apply,
+                    KdContourSystems::Stats,
+                )
+                    .chain()
+                    .before(TransformSystems::Propagate),
+            )
+            .add_systems(
+                PostUpdate,
+                (init_volumes, sync_volumes)
+                    .chain()
+                    .in_set(KdContourSystems::Edits)
+                    .before(crate::edits::apply_edits),
+            );
+    }
+}
+
+fn init_volumes(
+    mut commands: Commands,
+    settings: Res<KdContourSettings>,
+    clock: Res<MainThreadClock>,
+    volumes: Query<(Entity, &KdVolume), Without<VolumeState>>,
+) {
+    let _time = clock.measure();
+    for (entity, vol) in &volumes {
+        if !vol.iso.is_finite() {
+            error!("KdVolume {entity}: iso {} must be finite", vol.iso);
+            commands.entity(entity).remove::<KdVolume>();
+            continue;
+        }
+        let core = kdcontour::Settings {
+            threads: 1,
+            ..Default::default()
+        };
+        let world = match vol.extent {
+            VolumeExtent::Bounded { chunks } => ChunkWorld::new(
+                Vec3::ZERO,
+                vol.cell_size,
+                vol.chunk_res,
+                chunks,
+                settings.default_threshold,
+                core,
+            ),
+            VolumeExtent::Streaming {
+                view_distance,
+                min_y,
+                max_y,
+            } => {
+                if !(view_distance.is_finite() && view_distance >= 0.0) || min_y > max_y {
+                    Err(kdcontour::Error::InvalidSetting {
+                        name: "extent",
+                        reason: format!(
+                            "view_distance {view_distance} must be finite and >= 0, \
+                             and min_y {min_y} <= max_y {max_y}"
+                        ),
+                    })
+                } else {
+                    ChunkWorld::unbounded(
+                        Vec3::ZERO,
+                        vol.cell_size,
+                        vol.chunk_res,
+                        settings.default_threshold,
+                        core,
+                    )
+                }
+            }
+        };
+        let world = match world {
+            Ok(w) => w,
+            Err(e) => {
+                error!("KdVolume {entity}: {e}");
+                commands.entity(entity).remove::<KdVolume>();
+                continue;
+            }
+        };
+        let field = EditedField::new(KdVolume::shifted(&vol.field.0, vol.iso));
+        let mut state = VolumeState::new(world, field, (vol.field.0.clone(), vol.iso));
+        // A bounded world already lists its chunks; give each an entity. (A
+        // streaming world is empty until streaming runs.)
+        for c in state.world().coords() {
+            state.world_mut().remove_chunk(c);
+            state.load(&mut commands, entity, c, settings.default_threshold);
+        }
+        commands.entity(entity).insert(state);
+    }
+}
+
+/// A volume whose field or iso changed: replay its edits on the new field and
+/// rebuild every chunk.
+fn sync_volumes(
+    clock: Res<MainThreadClock>,
+    mut volumes: Query<(Entity, &KdVolume, &mut VolumeState), Changed<KdVolume>>,
+) {
+    let _time = clock.measure();
+    for (entity, vol, mut state) in &mut volumes {
+        let (field, iso) = &state.base;
+        if Arc::ptr_eq(field, &vol.field.0) && *iso == vol.iso {
+            continue;
+        }
+        if !vol.iso.is_finite() {
+            warn!(
+                "KdVolume {entity}: iso {} must be finite; kept {iso}",
+                vol.iso
+            );
+            continue;
+        }
+        let log = state.field().log();
+        match EditedField::replay(KdVolume::shifted(&vol.field.0, vol.iso), &log) {
+            Ok(f) => {
+                state.set_field(f);
+                state.base = (vol.field.0.clone(), vol.iso);
+                for c in state.world().coords() {
+                    state.mark_build(c);
+                }
+            }
+            Err(e) => warn!("KdVolume {entity}: replaying the edits failed: {e}"),
+        }
+    }
+}
