@@ -19,10 +19,10 @@ use bevy::prelude::*;
 use bevy_kdcontour::kdcontour::kdtree::{self, Partition};
 use bevy_kdcontour::kdcontour::{mc, meshers, scenes, Grid, KdTree, Settings};
 use bevy_kdcontour::panel::bevy_egui::{egui, EguiContexts, EguiPrimaryContextPass};
-use bevy_kdcontour::panel::{KdContourPanel, KdContourPanelPlugin};
+use bevy_kdcontour::panel::KdContourPanel;
 use bevy_kdcontour::prelude::*;
 use clap::Parser;
-use common::{ShotArgs, ShotPlugin};
+use common::ShotArgs;
 
 /// Marching Cubes, octree and k-d tree on the same grid.
 #[derive(Parser, Debug)]
@@ -67,31 +67,30 @@ fn main() {
     if !args.threshold.is_finite() {
         common::fail("--threshold must be a number");
     }
-    App::new()
-        .insert_resource(ClearColor(Color::srgb(0.16, 0.17, 0.2)))
-        .add_plugins((
-            common::default_plugins("bevy_kdcontour: compare", &args.shot),
-            KdContourPlugin::default(),
-            KdContourPanelPlugin {
-                panel: KdContourPanel {
-                    open: false,
-                    ..default()
-                },
-            },
-            ShotPlugin(args.shot.clone()),
-        ))
-        .insert_resource(Compare {
-            scene: args.scene.clone(),
-            res: args.res,
-            threshold: args.threshold,
-            rows: Vec::new(),
-            sample_ms: 0.0,
-            error: None,
-        })
-        .add_systems(Startup, setup)
-        .add_systems(Update, common::fly_camera)
-        .add_systems(EguiPrimaryContextPass, panel)
-        .run();
+    let mut app = App::new();
+    app.insert_resource(ClearColor(Color::srgb(0.16, 0.17, 0.2)));
+    common::add_plugins(
+        &mut app,
+        "bevy_kdcontour: compare",
+        &args.shot,
+        KdContourSettings::default(),
+        KdContourPanel {
+            open: false,
+            ..default()
+        },
+    )
+    .insert_resource(Compare {
+        scene: args.scene.clone(),
+        res: args.res,
+        threshold: args.threshold,
+        rows: Vec::new(),
+        sample_ms: 0.0,
+        error: None,
+    })
+    .add_systems(Startup, setup)
+    .add_systems(Update, common::fly_camera)
+    .add_systems(EguiPrimaryContextPass, panel)
+    .run();
 }
 
 fn setup(

@@ -1,7 +1,7 @@
 //! A small CSG modeller: build a solid from primitives combined in order with
 //! union, difference, intersection or their smooth variants; select a shape (click
 //! it, or pick it in the list), move and scale it, delete it, undo and redo, save
-//! and load the JSON scene file (the format of `scenes/README.md`). Only the chunks
+//! and load the JSON scene file (the format of `assets/scenes/README.md`). Only the chunks
 //! a change can reach are re-meshed: the old and new bounds of the changed shape,
 //! grown by its blend radius (the panel counts them).
 //!
@@ -22,10 +22,10 @@ use bevy::prelude::*;
 use bevy_kdcontour::kdcontour::field::layers::{self, Change, Layer, Layers, Operation, Solid};
 use bevy_kdcontour::kdcontour::{self, Field};
 use bevy_kdcontour::panel::bevy_egui::{egui, EguiContexts, EguiPrimaryContextPass};
-use bevy_kdcontour::panel::{KdContourPanel, KdContourPanelPlugin};
+use bevy_kdcontour::panel::KdContourPanel;
 use bevy_kdcontour::prelude::*;
 use clap::Parser;
-use common::{FlyCam, ShotArgs, ShotPlugin};
+use common::{FlyCam, ShotArgs};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -75,45 +75,32 @@ fn main() {
         layers::starter()
     };
     let layers = Layers::new(list).unwrap_or_else(|e| common::fail(e));
-    App::new()
-        .insert_resource(ClearColor(Color::srgb(0.14, 0.15, 0.18)))
-        .add_plugins((
-            common::default_plugins("bevy_kdcontour: csg_editor", &args.shot),
-            KdContourPlugin {
-                settings: KdContourSettings {
-                    // Chunk tasks take milliseconds; allow many per frame so
-                    // a slow (software-rendered) frame does not throttle meshing.
-                    max_tasks_in_flight: 32,
-                    lod: LodSettings {
-                        enabled: false,
-                        ..default()
-                    },
-                    default_threshold: 0.005,
-                    ..default()
-                },
-            },
-            KdContourPanelPlugin {
-                panel: KdContourPanel {
-                    show_iso: false,
-                    ..default()
-                },
-            },
-            ShotPlugin(args.shot.clone()),
-        ))
-        .insert_resource(Editor {
-            layers,
-            selected: Some(1),
-            path: args.scene.clone(),
-            message: None,
-            volume: None,
-            last_rebuilt: None,
-            was_dragging: false,
-        })
-        .add_systems(Startup, setup)
-        .add_systems(Update, (common::fly_camera, pick, keys, highlight))
-        .add_systems(EguiPrimaryContextPass, editor_panel)
-        .add_systems(PostUpdate, count_rebuilt)
-        .run();
+    let mut app = App::new();
+    app.insert_resource(ClearColor(Color::srgb(0.14, 0.15, 0.18)));
+    common::add_plugins(
+        &mut app,
+        "bevy_kdcontour: csg_editor",
+        &args.shot,
+        common::fixed(0.005),
+        KdContourPanel {
+            show_iso: false,
+            ..default()
+        },
+    )
+    .insert_resource(Editor {
+        layers,
+        selected: Some(1),
+        path: args.scene.clone(),
+        message: None,
+        volume: None,
+        last_rebuilt: None,
+        was_dragging: false,
+    })
+    .add_systems(Startup, setup)
+    .add_systems(Update, (common::fly_camera, pick, keys, highlight))
+    .add_systems(EguiPrimaryContextPass, editor_panel)
+    .add_systems(PostUpdate, count_rebuilt)
+    .run();
 }
 
 /// The scene's field in the volume's local space (lattice origin at the cube's

@@ -17,10 +17,10 @@ use bevy::pbr::wireframe::WireframeConfig;
 use bevy::prelude::*;
 use bevy_kdcontour::kdcontour::field::terrain::{Heightfield, HeightfieldParams};
 use bevy_kdcontour::kdcontour::Field;
-use bevy_kdcontour::panel::KdContourPanelPlugin;
+use bevy_kdcontour::panel::KdContourPanel;
 use bevy_kdcontour::prelude::*;
 use clap::Parser;
-use common::{FlyCam, ShotArgs, ShotPlugin};
+use common::{FlyCam, ShotArgs};
 use std::sync::Arc;
 
 /// Terrain chunks coloured by their LOD threshold.
@@ -53,42 +53,38 @@ fn main() {
         ));
     }
     let side = (args.chunks * args.chunk_res) as f32;
-    App::new()
-        .insert_resource(ClearColor(Color::srgb(0.12, 0.13, 0.16)))
-        .add_plugins((
-            common::default_plugins("bevy_kdcontour: lod", &args.shot),
-            KdContourPlugin {
-                settings: KdContourSettings {
-                    // Chunk tasks take milliseconds; allow many per frame so
-                    // a slow (software-rendered) frame does not throttle meshing.
-                    max_tasks_in_flight: 32,
-                    color_by_lod: true,
-                    lod: LodSettings {
-                        base: 0.01,
-                        near: side * 0.12,
-                        growth: 2.0,
-                        max: 5.0,
-                        ..default()
-                    },
-                    ..default()
-                },
+    let mut app = App::new();
+    app.insert_resource(ClearColor(Color::srgb(0.12, 0.13, 0.16)));
+    common::add_plugins(
+        &mut app,
+        "bevy_kdcontour: lod",
+        &args.shot,
+        KdContourSettings {
+            color_by_lod: true,
+            lod: LodSettings {
+                base: 0.01,
+                near: side * 0.12,
+                growth: 2.0,
+                max: 5.0,
+                ..default()
             },
-            KdContourPanelPlugin::default(),
-            ShotPlugin(args.shot.clone()),
-        ))
-        .insert_resource(Flight {
-            paused: false,
-            angle: 0.6,
-            centre: Vec3::new(side * 0.5, args.chunk_res as f32, side * 0.5),
-            radius: side * 0.32,
-        })
-        .insert_resource(Block {
-            chunks: args.chunks,
-            res: args.chunk_res,
-        })
-        .add_systems(Startup, setup)
-        .add_systems(Update, (fly, common::fly_camera).chain())
-        .run();
+            ..common::preset()
+        },
+        KdContourPanel::default(),
+    )
+    .insert_resource(Flight {
+        paused: false,
+        angle: 0.6,
+        centre: Vec3::new(side * 0.5, args.chunk_res as f32, side * 0.5),
+        radius: side * 0.32,
+    })
+    .insert_resource(Block {
+        chunks: args.chunks,
+        res: args.chunk_res,
+    })
+    .add_systems(Startup, setup)
+    .add_systems(Update, (fly, common::fly_camera).chain())
+    .run();
 }
 
 #[derive(Resource)]

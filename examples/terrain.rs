@@ -20,10 +20,10 @@ use bevy::prelude::*;
 use bevy_kdcontour::kdcontour::field::raycast;
 use bevy_kdcontour::kdcontour::field::terrain::{CaveParams, Density, DensityParams};
 use bevy_kdcontour::kdcontour::Field;
-use bevy_kdcontour::panel::{KdContourPanel, KdContourPanelPlugin};
+use bevy_kdcontour::panel::KdContourPanel;
 use bevy_kdcontour::prelude::*;
 use clap::Parser;
-use common::{FlyCam, ShotArgs, ShotPlugin};
+use common::{FlyCam, ShotArgs};
 use std::sync::Arc;
 
 /// Streaming terrain with camera LOD and sculpting.
@@ -77,45 +77,40 @@ fn main() {
         }),
     }));
     let scripted = args.shot.screenshot.is_some();
-    App::new()
-        .insert_resource(ClearColor(Color::srgb(0.62, 0.75, 0.9)))
-        .add_plugins((
-            common::default_plugins("bevy_kdcontour: terrain", &args.shot),
-            KdContourPlugin {
-                settings: KdContourSettings {
-                    // Chunk tasks take milliseconds; allow many per frame so
-                    // a slow (software-rendered) frame does not throttle meshing.
-                    max_tasks_in_flight: 16,
-                    lod: LodSettings {
-                        base: 0.02,
-                        near: 40.0,
-                        growth: 2.0,
-                        max: 4.0,
-                        ..default()
-                    },
-                    ..default()
-                },
+    let mut app = App::new();
+    app.insert_resource(ClearColor(Color::srgb(0.62, 0.75, 0.9)));
+    common::add_plugins(
+        &mut app,
+        "bevy_kdcontour: terrain",
+        &args.shot,
+        KdContourSettings {
+            max_tasks_in_flight: 16,
+            lod: LodSettings {
+                base: 0.02,
+                near: 40.0,
+                growth: 2.0,
+                max: 4.0,
+                ..default()
             },
-            KdContourPanelPlugin {
-                panel: KdContourPanel {
-                    iso_range: -8.0..=8.0,
-                    ..default()
-                },
-            },
-            ShotPlugin(args.shot.clone()),
-        ))
-        .insert_resource(Seed {
-            field,
-            view: args.view_distance,
-            res: args.chunk_res,
-            scripted,
-        })
-        .add_systems(Startup, setup)
-        .add_systems(
-            Update,
-            (common::fly_camera, sculpt, brush_preview, scripted_edits).chain(),
-        )
-        .run();
+            ..common::preset()
+        },
+        KdContourPanel {
+            iso_range: -8.0..=8.0,
+            ..default()
+        },
+    )
+    .insert_resource(Seed {
+        field,
+        view: args.view_distance,
+        res: args.chunk_res,
+        scripted,
+    })
+    .add_systems(Startup, setup)
+    .add_systems(
+        Update,
+        (common::fly_camera, sculpt, brush_preview, scripted_edits).chain(),
+    )
+    .run();
 }
 
 #[derive(Resource)]

@@ -19,10 +19,10 @@ use bevy_kdcontour::kdcontour::field::volume::{Inside, SampledVolume};
 use bevy_kdcontour::kdcontour::io::input::{parse_uvec3, parse_vec3};
 use bevy_kdcontour::kdcontour::io::volume::{is_nifti, load_nifti, load_raw, phantom, VoxelType};
 use bevy_kdcontour::panel::bevy_egui::{egui, EguiContexts, EguiPrimaryContextPass};
-use bevy_kdcontour::panel::{KdContourPanel, KdContourPanelPlugin};
+use bevy_kdcontour::panel::KdContourPanel;
 use bevy_kdcontour::prelude::*;
 use clap::Parser;
-use common::{ShotArgs, ShotPlugin};
+use common::ShotArgs;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -107,42 +107,29 @@ fn main() {
     } else {
         0.5 * (range.0 + range.1)
     });
-    App::new()
-        .insert_resource(ClearColor(Color::srgb(0.1, 0.11, 0.13)))
-        .add_plugins((
-            common::default_plugins("bevy_kdcontour: volume", &args.shot),
-            KdContourPlugin {
-                settings: KdContourSettings {
-                    // Chunk tasks take milliseconds; allow many per frame so
-                    // a slow (software-rendered) frame does not throttle meshing.
-                    max_tasks_in_flight: 32,
-                    lod: LodSettings {
-                        enabled: false,
-                        ..default()
-                    },
-                    default_threshold: 0.02,
-                    ..default()
-                },
-            },
-            KdContourPanelPlugin {
-                panel: KdContourPanel {
-                    show_iso: false,
-                    ..default()
-                },
-            },
-            ShotPlugin(args.shot.clone()),
-        ))
-        .insert_resource(Scan {
-            volume,
-            name,
-            range,
-            iso,
-            entity: None,
-        })
-        .add_systems(Startup, setup)
-        .add_systems(Update, common::fly_camera)
-        .add_systems(EguiPrimaryContextPass, iso_panel)
-        .run();
+    let mut app = App::new();
+    app.insert_resource(ClearColor(Color::srgb(0.1, 0.11, 0.13)));
+    common::add_plugins(
+        &mut app,
+        "bevy_kdcontour: volume",
+        &args.shot,
+        common::fixed(0.02),
+        KdContourPanel {
+            show_iso: false,
+            ..default()
+        },
+    )
+    .insert_resource(Scan {
+        volume,
+        name,
+        range,
+        iso,
+        entity: None,
+    })
+    .add_systems(Startup, setup)
+    .add_systems(Update, common::fly_camera)
+    .add_systems(EguiPrimaryContextPass, iso_panel)
+    .run();
 }
 
 /// The scan's field at `iso`, with voxel (0, 0, 0) at the local origin.

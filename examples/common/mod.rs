@@ -1,10 +1,12 @@
-//! Shared by the examples: the `--screenshot PATH [--frames N]` harness, a fly
-//! camera, and a sun with sky light.
+//! Shared by the examples: the plugin set and settings preset every example
+//! starts from, the `--screenshot PATH [--frames N]` harness, a fly camera, and a
+//! sun with sky light.
 #![allow(dead_code)] // not every example uses every helper
 
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{save_to_disk, Screenshot, ScreenshotCaptured};
 use bevy::window::{PresentMode, WindowResolution};
+use bevy_kdcontour::panel::{KdContourPanel, KdContourPanelPlugin};
 use bevy_kdcontour::prelude::*;
 use std::path::PathBuf;
 
@@ -36,6 +38,46 @@ pub fn default_plugins(title: &str, shot: &ShotArgs) -> impl PluginGroup {
         }),
         ..default()
     })
+}
+
+/// The settings every example starts from: chunk tasks take milliseconds, so
+/// many may run at once and a slow (software-rendered) frame does not throttle
+/// meshing.
+pub fn preset() -> KdContourSettings {
+    KdContourSettings {
+        max_tasks_in_flight: 32,
+        ..default()
+    }
+}
+
+/// [`preset`] with camera LOD off: every chunk cut at `threshold`.
+pub fn fixed(threshold: f32) -> KdContourSettings {
+    KdContourSettings {
+        default_threshold: threshold,
+        lod: LodSettings {
+            enabled: false,
+            ..default()
+        },
+        ..preset()
+    }
+}
+
+/// Adds what every example runs on: Bevy's default plugins with the example's
+/// window, the meshing plugins with `settings` (start from [`preset`]), the egui
+/// panel, and the screenshot harness.
+pub fn add_plugins<'a>(
+    app: &'a mut App,
+    title: &str,
+    shot: &ShotArgs,
+    settings: KdContourSettings,
+    panel: KdContourPanel,
+) -> &'a mut App {
+    app.add_plugins((
+        default_plugins(title, shot),
+        KdContourPlugins { settings },
+        KdContourPanelPlugin { panel },
+        ShotPlugin(shot.clone()),
+    ))
 }
 
 /// Adds the screenshot harness when `--screenshot` was given.
