@@ -34,7 +34,7 @@ struct Source {
     /// A built-in scene (see `kdcontour scenes`).
     #[arg(long)]
     scene: Option<String>,
-    /// A JSON CSG scene file (format: scenes/README.md).
+    /// A JSON CSG scene file (format: assets/scenes/README.md).
     #[arg(long)]
     scene_file: Option<PathBuf>,
     /// A volume: NIfTI-1 (.nii, .nii.gz) or raw voxels (with --dims and --type).

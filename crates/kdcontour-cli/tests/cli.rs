@@ -85,7 +85,7 @@ fn scene_file_to_obj_and_ply() {
         let (code, out, err) = kdcontour(&[
             "mesh",
             "--scene-file",
-            "scenes/example.json",
+            "assets/scenes/example.json",
             "--res",
             "32",
             "--out",

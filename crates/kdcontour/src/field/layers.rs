@@ -3,7 +3,7 @@
 //! combined with everything before it by an [`Operation`].
 //!
 //! [`to_json`] and [`from_json`] save and load a list as the JSON scene format (a
-//! left fold of the layers, see [`CsgNode`] and `scenes/README.md`). [`Layers`]
+//! left fold of the layers, see [`CsgNode`] and `assets/scenes/README.md`). [`Layers`]
 //! holds the list being edited, each layer's compiled field and bounds (compiled
 //! once per change), and an undo / redo history; each change says which region of
 //! space it can reach ([`Change::regions`]), so only the chunks there need
@@ -456,7 +456,7 @@ mod tests {
     fn foreign_scenes_load_as_one_movable_shape() {
         let text = std::fs::read_to_string(concat!(
             env!("CARGO_MANIFEST_DIR"),
-            "/../../scenes/example.json"
+            "/../../assets/scenes/example.json"
         ))
         .unwrap();
         let node = CsgNode::from_json(&text).unwrap();
