@@ -353,8 +353,7 @@ fn run(args: &Args, scene_name: &str, res: u32) -> Result<Vec<Row>, String> {
     // MC + meshoptimizer down to the k-d tree's count. MC from the same Hermite
     // data as ours (crossings refined on the field), then simplified.
     let (ms, m) = time(args.reps, || {
-        let values = hermite::sample(field, &grid, &settings).unwrap();
-        let h = hermite::Hermite::new(field, &grid, &values, &settings).unwrap();
+        let h = hermite::Hermite::from_field(field, &grid, &settings).unwrap();
         let mc = mc::marching_cubes(&h);
         mc_meshopt(&mc, kd.triangle_count())
     });

@@ -29,15 +29,11 @@ fn stages(c: &mut Criterion, scene: &str, res: u32, threshold: f32) {
         g.bench_function(BenchmarkId::new("sample", threads), |b| {
             b.iter(|| {
                 p.install(|| {
-                    let v = hermite::sample(field, &grid, &settings).unwrap();
-                    black_box(hermite::Hermite::new(field, &grid, &v, &settings).unwrap())
+                    black_box(hermite::Hermite::from_field(field, &grid, &settings).unwrap())
                 })
             })
         });
-        let h = p.install(|| {
-            let v = hermite::sample(field, &grid, &settings).unwrap();
-            hermite::Hermite::new(field, &grid, &v, &settings).unwrap()
-        });
+        let h = p.install(|| hermite::Hermite::from_field(field, &grid, &settings).unwrap());
         g.bench_function(BenchmarkId::new("build", threads), |b| {
             b.iter(|| p.install(|| black_box(kdtree::build(&h))))
         });
@@ -89,10 +85,7 @@ fn terrain_chunk(c: &mut Criterion) {
     );
     g.bench_function("sample/1", |b| {
         b.iter(|| {
-            p.install(|| {
-                let v = hermite::sample(&field, &grid, &settings).unwrap();
-                black_box(hermite::Hermite::new(&field, &grid, &v, &settings).unwrap())
-            })
+            p.install(|| black_box(hermite::Hermite::from_field(&field, &grid, &settings).unwrap()))
         })
     });
     g.bench_function("total/1", |b| {
