@@ -32,6 +32,10 @@ pub struct Part<'a> {
     pub offset: IVec3,
     /// Its error threshold.
     pub threshold: f32,
+    /// Its cells are `2^shift` lattice units wide (a chunk `shift` levels coarser
+    /// than the lattice; 0 for a chunk on the lattice itself). `offset` is in
+    /// lattice units and a multiple of `2^shift`.
+    pub shift: u32,
 }
 
 /// What to contour.
@@ -55,6 +59,17 @@ pub enum Job {
         parts: [usize; 4],
         /// The edge's axis.
         axis: usize,
+    },
+    /// Like [`Job::Edge`], through the lattice line `line` (its coordinates on the
+    /// two axes other than `axis`; the third is ignored). One part may fill two
+    /// quadrants (a coarser chunk whose face the line lies on).
+    EdgeAt {
+        /// The four parts, in [`Job::Edge`]'s quadrant order.
+        parts: [usize; 4],
+        /// The edge's axis.
+        axis: usize,
+        /// A point of the line (lattice units).
+        line: [i32; 3],
     },
 }
 
@@ -127,11 +142,18 @@ pub fn contour(parts: &[Part], jobs: &[Job], out: &mut IndexedMesh) {
                 let mut line = [0i32; 3];
                 line[u] = b0.1[u];
                 line[v] = b0.1[v];
-                let (lo, hi) = r.iter().fold((i32::MIN, i32::MAX), |(lo, hi), &x| {
-                    let b = w.bounds(x);
-                    (lo.max(b.0[axis]), hi.min(b.1[axis]))
-                });
-                w.edge_proc(r, axis, line, lo, hi, false);
+                w.edge_job(r, axis, line);
+            }
+            Job::EdgeAt {
+                parts: p,
+                axis,
+                line,
+            } => {
+                let r = p.map(root);
+                if r.iter().any(|x| x.is_none()) {
+                    continue;
+                }
+                w.edge_job(r, axis, line);
             }
         }
     }
@@ -251,6 +273,7 @@ impl KdTree {
             tree: self,
             offset: IVec3::ZERO,
             threshold,
+            shift: 0,
         }];
         if rayon::current_num_threads() > 1
             && self.comps.len() >= PARALLEL_COMPS
@@ -272,6 +295,32 @@ impl KdTree {
     }
 }
 
+/// The first edge with a sign change on face `side` (0 low, 1 high) of `cell`
+/// perpendicular to axis `w`, as a cell edge index.
+fn face_crossing(tree: &KdTree, cell: [u32; 3], w: usize, side: u32) -> Option<usize> {
+    for a in [(w + 1) % 3, (w + 2) % 3] {
+        let r = 3 - a - w;
+        for k in 0..2u32 {
+            let mut lo = cell;
+            lo[w] += side;
+            lo[r] += k;
+            let mut hi = lo;
+            hi[a] += 1;
+            if tree.is_outside(lo) != tree.is_outside(hi) {
+                // Offsets along (a + 1) % 3 and (a + 2) % 3.
+                let (bw, br) = (side, k);
+                let e = if (a + 1) % 3 == w {
+                    edge_index(a, bw, br)
+                } else {
+                    edge_index(a, br, bw)
+                };
+                return Some(e);
+            }
+        }
+    }
+    None
+}
+
 impl Walker<'_, '_> {
     fn part(&self, r: NodeRef) -> &Part<'_> {
         &self.parts[r.t as usize]
@@ -289,11 +338,34 @@ impl Walker<'_, '_> {
     /// The node's box on the shared lattice.
     fn bounds(&self, r: NodeRef) -> ([i32; 3], [i32; 3]) {
         let nd = self.node(r);
-        let o = self.part(r).offset.to_array();
+        let p = self.part(r);
+        let (o, s) = (p.offset.to_array(), p.shift);
         (
-            [0, 1, 2].map(|a| nd.min[a] as i32 + o[a]),
-            [0, 1, 2].map(|a| nd.max[a] as i32 + o[a]),
+            [0, 1, 2].map(|a| ((nd.min[a] as i32) << s) + o[a]),
+            [0, 1, 2].map(|a| ((nd.max[a] as i32) << s) + o[a]),
         )
+    }
+
+    /// An edge job: the four roots around `line` along `axis`, over the stretch
+    /// all four boxes share.
+    fn edge_job(&mut self, r: [NodeRef; 4], axis: usize, line: [i32; 3]) {
+        let (lo, hi) = r.iter().fold((i32::MIN, i32::MAX), |(lo, hi), &x| {
+            let b = self.bounds(x);
+            (lo.max(b.0[axis]), hi.min(b.1[axis]))
+        });
+        self.edge_proc(r, axis, line, lo, hi, false);
+    }
+
+    /// The part whose signs a seam line is read from: the finest of the slots (the
+    /// first of equals), whose lattice holds every corner on the line.
+    fn finest(&self, slots: &[NodeRef; 4]) -> u32 {
+        let mut best = slots[0].t;
+        for s in &slots[1..] {
+            if self.parts[s.t as usize].shift < self.parts[best as usize].shift {
+                best = s.t;
+            }
+        }
+        best
     }
 
     fn split(&self, r: NodeRef) -> (usize, i32, NodeRef, NodeRef) {
@@ -306,9 +378,10 @@ impl Walker<'_, '_> {
                 NodeRef { t: r.t, n: c }
             }
         };
+        let p = self.part(r);
         (
             a,
-            nd.split as i32 + self.part(r).offset[a],
+            ((nd.split as i32) << p.shift) + p.offset[a],
             child(nd.children[0]),
             child(nd.children[1]),
         )
@@ -323,7 +396,8 @@ impl Walker<'_, '_> {
     fn outside(&self, t: u32, g: [i32; 3]) -> bool {
         let p = &self.parts[t as usize];
         let o = p.offset.to_array();
-        p.tree.is_outside([0, 1, 2].map(|a| (g[a] - o[a]) as u32))
+        p.tree
+            .is_outside([0, 1, 2].map(|a| ((g[a] - o[a]) >> p.shift) as u32))
     }
 
     fn cell_proc(&mut self, r: NodeRef) {
@@ -419,7 +493,7 @@ impl Walker<'_, '_> {
     ) {
         if slots.iter().any(|s| s.is_none())
             || lo >= hi
-            || !(crossing || self.has_crossing(slots[0].t, d, line, lo, hi))
+            || !(crossing || self.has_crossing(self.finest(&slots), d, line, lo, hi))
         {
             return;
         }
@@ -490,13 +564,13 @@ impl Walker<'_, '_> {
         let (grid, bits) = (&p.tree.grid, &p.tree.outside);
         let mut g = line;
         g[d] = lo;
-        let g = [0, 1, 2].map(|a| (g[a] - o[a]) as u32);
+        let g = [0, 1, 2].map(|a| ((g[a] - o[a]) >> p.shift) as u32);
         let c = grid.corners();
         let stride = [1, c.x as usize, c.x as usize * c.y as usize][d];
         let mut i = grid.corner_index(g[0], g[1], g[2]);
         let bit = |i: usize| (bits[i / 64] >> (i % 64)) & 1;
         let first = bit(i);
-        for _ in lo..hi {
+        for _ in 0..(hi - lo) >> p.shift {
             i += stride;
             if bit(i) != first {
                 return true;
@@ -506,26 +580,20 @@ impl Walker<'_, '_> {
     }
 
     fn emit(&mut self, slots: [NodeRef; 4], d: usize, line: [i32; 3], lo: i32, hi: i32) {
-        let (u, v) = ((d + 1) % 3, (d + 2) % 3);
-        let t0 = slots[0].t;
+        let t0 = self.finest(&slots);
+        let step = 1 << self.parts[t0 as usize].shift;
         let mut g = line;
         g[d] = lo;
         let mut prev = self.outside(t0, g);
-        for x in lo..hi {
+        let mut x = lo;
+        while x < hi {
             let mut h = g;
-            h[d] = x + 1;
+            h[d] = x + step;
             let next = self.outside(t0, h);
             if next != prev {
                 let mut ids = [0u32; 4];
-                for (q, &(qu, qv)) in QUADRANT.iter().enumerate() {
-                    let mut cell = g;
-                    cell[d] = x;
-                    cell[u] += qu - 1;
-                    cell[v] += qv - 1;
-                    let e = edge_index(d, (1 - qu) as u32, (1 - qv) as u32);
-                    let leaf = slots[q];
-                    let o = self.part(leaf).offset.to_array();
-                    let local = [0, 1, 2].map(|a| (cell[a] - o[a]) as u32);
+                for (q, &leaf) in slots.iter().enumerate() {
+                    let (local, e) = self.seam_cell(leaf, d, line, x, q);
                     let comp = self.part(leaf).tree.comp_of(leaf.n, local, e);
                     ids[q] = self.vertex(leaf, comp);
                 }
@@ -537,7 +605,69 @@ impl Walker<'_, '_> {
                 self.mesh.push_polygon(ids);
             }
             prev = next;
+            x += step;
         }
+    }
+
+    /// The cell of `leaf`'s part (its own coordinates) in quadrant `q` around the
+    /// line along `d`, at lattice step `x`, and the edge of that cell whose
+    /// component the polygon takes.
+    ///
+    /// On the part's own lattice that is the cell's edge on the line. A coarser part
+    /// (see [`crate::world::levels`]) may fill two quadrants, with the line crossing
+    /// the middle of one of its cell faces: the finer side's conformed samples give
+    /// such a fine edge a crossing only when the coarse face holds a single contour
+    /// segment, so any crossing edge of that face names the component.
+    fn seam_cell(
+        &self,
+        leaf: NodeRef,
+        d: usize,
+        line: [i32; 3],
+        x: i32,
+        q: usize,
+    ) -> ([u32; 3], usize) {
+        let (u, v) = ((d + 1) % 3, (d + 2) % 3);
+        let (qu, qv) = QUADRANT[q];
+        let p = self.part(leaf);
+        let (o, s) = (p.offset.to_array(), p.shift);
+        let lu = line[u] - o[u];
+        let lv = line[v] - o[v];
+        let mut cell = [0i32; 3];
+        cell[d] = (x - o[d]) >> s;
+        cell[u] = (lu + qu - 1) >> s;
+        cell[v] = (lv + qv - 1) >> s;
+        let local = cell.map(|c| c as u32);
+        let mask = (1 << s) - 1;
+        let (on_u, on_v) = (lu & mask == 0, lv & mask == 0);
+        if on_u && on_v {
+            return (local, edge_index(d, (1 - qu) as u32, (1 - qv) as u32));
+        }
+        debug_assert!(on_u || on_v, "a seam line through the inside of a cell");
+        // The face the line crosses: perpendicular to the on-lattice axis, on the
+        // quadrant's side of the line. The fine edge runs from the midpoint of a
+        // coarse edge (along the off-lattice axis) to the face centre; the fine
+        // contour through it cuts off the part of that coarse edge the midpoint
+        // shares, so it takes that edge's component when the edge crosses. When it
+        // does not, the face holds a single segment and any crossing edge names it.
+        let (w, side, off) = if on_v {
+            (v, (1 - qv) as u32, u)
+        } else {
+            (u, (1 - qu) as u32, v)
+        };
+        let od = if (x - o[d]) & mask == 0 { 0 } else { 1 };
+        let mut lo = local;
+        lo[d] += od;
+        lo[w] += side;
+        let mut hi = lo;
+        hi[off] += 1;
+        let e = if p.tree.is_outside(lo) != p.tree.is_outside(hi) {
+            let at = |b: usize| if b == d { od } else { side };
+            edge_index(off, at((off + 1) % 3), at((off + 2) % 3))
+        } else {
+            face_crossing(p.tree, local, w, side)
+                .expect("a coarse face with a fine crossing has a crossing edge")
+        };
+        (local, e)
     }
 
     fn vertex(&mut self, leaf: NodeRef, local: u8) -> u32 {

@@ -23,6 +23,14 @@
 //! ([`Grid::offset`]), so a corner shared by two chunks has bitwise the same value
 //! in both.
 
+pub mod conform;
+pub mod layout;
+pub mod levels;
+
+pub use conform::{LevelBuild, Neighbourhood};
+pub use layout::{ChunkKey, Layout};
+pub use levels::{LevelWorld, Seam};
+
 use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::grid::Grid;
@@ -392,6 +400,7 @@ impl ChunkWorld {
             tree,
             offset: self.part_offset(c),
             threshold: slot.threshold,
+            shift: 0,
         })
     }
 
@@ -538,6 +547,7 @@ impl ChunkSnapshot {
                 tree: t,
                 offset: *offset,
                 threshold: *threshold,
+                shift: 0,
             })
             .collect();
         contour(&parts, &self.jobs, out);
