@@ -201,8 +201,8 @@ fn level_changes_and_edits_rebuild_the_stale_chunks_and_stay_closed() {
         assert!(w.stale().is_empty());
         randomise(&mut w, &mut rng, THRESHOLDS.len());
         check(&w, &format!("layout {step}"));
-        // An edit: rebuild the chunks whose box, grown by two of its cells (the
-        // coarse samples a finer chunk conforms to), meets the brush.
+        // An edit: rebuild the chunks whose box, grown by two of their cells (the
+        // samples a finer chunk conforms to), meets the brush.
         let centre = Vec3::new(0.55 * (step as f32).cos(), 0.1, 0.55 * (step as f32).sin());
         let op = if step % 2 == 0 {
             BrushOp::Add
@@ -210,15 +210,7 @@ fn level_changes_and_edits_rebuild_the_stale_chunks_and_stay_closed() {
             BrushOp::Subtract
         };
         field = field.with_edit(Brush::sphere(centre, 0.2, op)).unwrap();
-        let touched: Vec<ChunkKey> = w
-            .chunks()
-            .into_iter()
-            .filter(|k| {
-                let (lo, hi) = w.chunk_bounds(k);
-                let grow = 2.0 * w.chunk_grid(k).cell_size;
-                centre.clamp(lo - grow, hi + grow).distance(centre) <= 0.2
-            })
-            .collect();
+        let touched = w.chunks_near_edit(centre, 0.2);
         assert!(!touched.is_empty() && touched.len() < w.chunks().len());
         w.build(&touched, &field).unwrap();
         let m = check(&w, &format!("edit {step}"));
@@ -251,8 +243,9 @@ fn coarse_chunks_keep_their_error_bound_in_their_own_cells() {
     // As tests/geometry.rs for one grid: sqrt(threshold) + 0.1 cells, here in the
     // cells of each chunk's level, for every chunk no coarser chunk touches (the
     // coarsest level, and finer chunks away from coarser ones). A chunk next to a
-    // coarser one follows the coarse contour on their shared boundary, so its
-    // vertices there can be off by up to about one of its cells.
+    // coarser one follows the coarse contour on their shared boundary (a fine
+    // crossing can sit in the other half of its coarse edge), so its vertices
+    // there may be off by up to a cell diagonal more (measured: 1.16 cells more).
     let (lo, hi) = region();
     for name in ["sphere", "torus"] {
         let scene = scenes::scene(name).unwrap();
@@ -281,7 +274,7 @@ fn coarse_chunks_keep_their_error_bound_in_their_own_cells() {
                     let r = validate(&m, Some((&*scene.field, cell)));
                     let bound = e.max(0.0).sqrt() + 0.1;
                     let near_coarser = !w.chunk_build(&k).neighbourhood.coarser.is_empty();
-                    let slack = if near_coarser { 1.0 } else { 0.0 };
+                    let slack = if near_coarser { 3f32.sqrt() } else { 0.0 };
                     if !near_coarser {
                         seen[k.level as usize] += 1;
                     }

@@ -79,18 +79,21 @@ impl LevelBuild {
     }
 
     /// Rule 1 (see [`super::levels`]): on the boundary of a coarser neighbour, a
-    /// coarse edge's midpoint keeps the field's sign where the edge has a crossing
-    /// (the fine crossing is then in the half that holds the field's root) and
-    /// takes its ends' sign where it has none; a coarse face's centre follows
-    /// [`centre_inside`]. The grid is sampled one fine cell
-    /// wider, so the coarse corners and midpoints around its own points are read
-    /// from samples computed as their owners compute them.
+    /// coarse edge's midpoint takes its ends' sign where the edge has no crossing;
+    /// where it has one, it is inside if a coarse face around the edge is
+    /// ambiguous, else it keeps the field's sign (the fine crossing is then in the
+    /// half that holds the field's root). A coarse face's centre follows
+    /// [`centre_inside`]. The grid is sampled three fine cells wider, so the
+    /// coarse corners and midpoints around its own points are read from samples
+    /// computed as their owners compute them.
     fn conformed(&self, field: &dyn Field) -> Result<Vec<f32>> {
         let res = self.res as i32;
         let g = &self.grid;
+        // Reads reach three fine cells past the grid: a face centre's midpoints,
+        // and the coarse faces around their coarse edges.
         let wide = Grid {
-            cells: g.cells + UVec3::splat(2),
-            offset: g.offset - IVec3::ONE,
+            cells: g.cells + UVec3::splat(6),
+            offset: g.offset - IVec3::splat(3),
             ..*g
         };
         let wv = hermite::sample(field, &wide, &self.settings)?;
@@ -102,13 +105,26 @@ impl LevelBuild {
             let s: f64 = vs.iter().map(|&v| (v as f64).clamp(-1e30, 1e30)).sum();
             (s / vs.len() as f64) as f32
         };
+        let inside = |p: IVec3| real(p) < 0.0;
         // A coarse edge midpoint `p` (odd along `a` only).
         let mid = |p: IVec3, a: usize| {
-            let (e0, e1) = (real(p - IVec3::AXES[a]), real(p + IVec3::AXES[a]));
-            if (e0 < 0.0) != (e1 < 0.0) {
-                real(p)
+            let ea = IVec3::AXES[a];
+            let (e0, e1) = (real(p - ea), real(p + ea));
+            if (e0 < 0.0) == (e1 < 0.0) {
+                return mean(&[e0, e1]);
+            }
+            // A coarse face around the edge with alternating corners.
+            let ambiguous = [(a + 1) % 3, (a + 2) % 3].iter().any(|&b| {
+                [-2, 2].iter().any(|&s| {
+                    let o = IVec3::AXES[b] * s;
+                    inside(p - ea) == inside(p + ea + o) && inside(p + ea) == inside(p - ea + o)
+                })
+            });
+            let v = real(p);
+            if ambiguous && v >= 0.0 {
+                TINY
             } else {
-                mean(&[e0, e1])
+                v
             }
         };
         let boxes: Vec<(IVec3, IVec3)> = self

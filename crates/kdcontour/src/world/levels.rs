@@ -12,29 +12,34 @@
 //! ## Level seams
 //! Where a chunk meets one a level coarser, the finer side sees lattice points the
 //! coarse side does not: the midpoints of coarse edges and the centres of coarse
-//! faces. Two rules make both sides see the same contour on the shared boundary:
+//! faces. Two rules make both sides see one contour on the shared boundary:
 //!
-//! 1. **The finer side conforms.** A fine-lattice point that lies on the closed box
-//!    of a coarser chunk, and not on the coarse lattice, takes its sample from the
-//!    coarse corners of the smallest coarse edge or face that holds it: **inside if
-//!    any of them is inside** (their mean, made negative if need be). A coarse
-//!    edge then has one fine crossing exactly when it has a crossing, and no fine
-//!    face of a coarse face is ambiguous. A coarse face's fine contour is its
-//!    coarse contour: one segment stays one segment (possibly bent through the
-//!    face centre), and an ambiguous coarse face joins its inside corners through
-//!    the centre. Every chunk of the finer level computes the same samples there,
-//!    so fine neighbours agree too.
-//! 2. **The coarser side separates.** Across a face whose neighbours are finer, a
-//!    chunk's halo samples are inside, so its ambiguous faces there separate their
-//!    outside corners: the same resolution rule 1 gives the fine side.
+//! 1. **The finer side conforms.** On the closed box of a coarser neighbour, a
+//!    coarse edge's midpoint keeps the field's sign when the coarse edge has a
+//!    crossing (the fine crossing then lies in the half that holds the field's
+//!    root, so it is found on the field) and takes its ends' sign when it has
+//!    none: a coarse edge has one fine crossing exactly when it has a crossing. A
+//!    coarse face's centre is inside when the face is ambiguous; otherwise it
+//!    takes the sign that leaves no fine quarter of the face ambiguous and joins
+//!    it to a midpoint ([`super::conform`]). The fine contour on a coarse face
+//!    then runs between the same coarse edges as the coarse contour: one segment
+//!    stays one curve, and an ambiguous face joins its inside corners through the
+//!    centre. Every chunk of the finer level computes the same samples there, so
+//!    fine neighbours agree too.
+//! 2. **Both sides separate.** Across a face whose neighbours are at another
+//!    level, a chunk's halo samples are inside, so every ambiguous face on a level
+//!    seam, coarse or fine, separates its outside corners and joins its inside
+//!    ones: the resolution rule 1 gives the coarse faces.
 //!
 //! The seam walk ([`crate::kdtree::contour`]) places every chunk on the level-0
 //! lattice with its own [`Part::shift`]: a coarse node's box is its cells times
 //! `2^level`. It reads a seam line's signs from the finest tree around it, steps
 //! along it by that tree's cells, and maps each fine crossing to each quadrant's
-//! leaf: on a coarse edge to that edge; through the middle of a coarse face (the
-//! fine edges from an edge midpoint to the face centre, which cross only when the
-//! face holds one segment) to the component of that face's crossing edges.
+//! leaf: on a coarse edge to that edge; through the middle of a coarse face (a
+//! fine edge from a coarse edge's midpoint to the face centre) to the coarse edge
+//! through that midpoint when it crosses (the fine curve there cuts off the same
+//! corner as that edge's coarse segment), else to any crossing edge of the face
+//! (which then holds a single segment).
 //!
 //! Chunks whose neighbourhood ([`Neighbourhood`]) changes with a new layout are
 //! rebuilt: [`LevelWorld::set_layout`] lists them.
@@ -331,6 +336,22 @@ impl LevelWorld {
         let stale = self.stale();
         self.build(&stale, field)?;
         Ok(stale)
+    }
+
+    /// The chunks an edit within `radius` of `center` (world units) reaches: those
+    /// whose box, grown by two of their own cells, meets that ball (a chunk samples
+    /// one cell of halo, and one more where it conforms to a coarser neighbour).
+    /// Rebuild them with [`LevelWorld::build`]; every level that covers the edit
+    /// is among them.
+    pub fn chunks_near_edit(&self, center: Vec3, radius: f32) -> Vec<ChunkKey> {
+        self.chunks()
+            .into_iter()
+            .filter(|k| {
+                let (lo, hi) = self.chunk_bounds(k);
+                let grow = 2.0 * self.chunk_grid(k).cell_size;
+                center.clamp(lo - grow, hi + grow).distance(center) <= radius
+            })
+            .collect()
     }
 
     /// The tree of chunk `k`, if built.
