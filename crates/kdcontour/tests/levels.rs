@@ -67,18 +67,25 @@ fn level_seams(w: &LevelWorld) -> usize {
 }
 
 /// The welded world mesh is closed, manifold and oriented, and the chunk meshes
-/// (interior + owned seams) add up to it.
+/// (interior + owned seams, or a snapshot) add up to it.
 fn check(w: &LevelWorld, what: &str) -> IndexedMesh {
     let m = w.extract_all();
     let r = validate(&m, None);
     assert!(r.triangles > 0 && r.is_closed_manifold(), "{what}: {r:?}");
     let mut parts = 0;
     let mut one = IndexedMesh::default();
+    let mut snap = IndexedMesh::default();
     for k in w.chunks() {
         w.extract_interior(&k, &mut one);
-        parts += one.triangle_count();
+        let mut n = one.triangle_count();
         w.extract_seams(&k, &mut one);
-        parts += one.triangle_count();
+        n += one.triangle_count();
+        // A detached snapshot extracts the same triangles.
+        if let Some(s) = w.snapshot(&k) {
+            s.extract(&mut snap);
+            assert_eq!(snap.triangle_count(), n, "{what}: snapshot of {k:?}");
+        }
+        parts += n;
     }
     assert_eq!(
         parts,

@@ -29,7 +29,7 @@ pub mod levels;
 
 pub use conform::{LevelBuild, Neighbourhood};
 pub use layout::{ChunkKey, Layout};
-pub use levels::{LevelWorld, Seam};
+pub use levels::{LevelSnapshot, LevelWorld, Seam};
 
 use crate::error::{Error, Result};
 use crate::field::Field;
