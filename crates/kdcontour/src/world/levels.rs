@@ -110,12 +110,7 @@ impl LevelWorld {
                 reason: format!("{chunk_res} cells per chunk; allowed even, 2 to 4096"),
             });
         }
-        if !threshold.is_finite() {
-            return Err(Error::InvalidSetting {
-                name: "threshold",
-                reason: format!("{threshold} must be finite"),
-            });
-        }
+        super::check_threshold(threshold)?;
         let mut world = LevelWorld {
             origin,
             cell_size,

@@ -135,12 +135,7 @@ impl ChunkWorld {
                 reason: format!("{chunk_res} cells per chunk; allowed 1 to 4096"),
             });
         }
-        if !threshold.is_finite() {
-            return Err(Error::InvalidSetting {
-                name: "threshold",
-                reason: format!("{threshold} must be finite"),
-            });
-        }
+        check_threshold(threshold)?;
         let world = ChunkWorld {
             origin,
             cell_size,
@@ -503,6 +498,18 @@ impl ChunkWorld {
             .filter_map(|s| s.tree.as_ref())
             .map(|t| t.retained_bytes())
             .sum()
+    }
+}
+
+/// A chunk threshold must be finite.
+pub(crate) fn check_threshold(threshold: f32) -> Result<()> {
+    if threshold.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::InvalidSetting {
+            name: "threshold",
+            reason: format!("{threshold} must be finite"),
+        })
     }
 }
 
