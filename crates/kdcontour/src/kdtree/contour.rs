@@ -12,8 +12,9 @@
 //! chunk edge meet each tree at its own cut, so neighbours at different thresholds
 //! join without cracks.
 
+mod levels;
+
 use super::{KdNode, KdTree, NONE};
-use crate::cell::edge_index;
 use crate::mesh::IndexedMesh;
 use glam::IVec3;
 
@@ -32,6 +33,10 @@ pub struct Part<'a> {
     pub offset: IVec3,
     /// Its error threshold.
     pub threshold: f32,
+    /// Its cells are `2^shift` lattice units wide (a chunk `shift` levels coarser
+    /// than the lattice; 0 for a chunk on the lattice itself). `offset` is in
+    /// lattice units and a multiple of `2^shift`.
+    pub shift: u32,
 }
 
 /// What to contour.
@@ -55,6 +60,17 @@ pub enum Job {
         parts: [usize; 4],
         /// The edge's axis.
         axis: usize,
+    },
+    /// Like [`Job::Edge`], through the lattice line `line` (its coordinates on the
+    /// two axes other than `axis`; the third is ignored). One part may fill two
+    /// quadrants (a coarser chunk whose face the line lies on).
+    EdgeAt {
+        /// The four parts, in [`Job::Edge`]'s quadrant order.
+        parts: [usize; 4],
+        /// The edge's axis.
+        axis: usize,
+        /// A point of the line (lattice units).
+        line: [i32; 3],
     },
 }
 
@@ -127,11 +143,18 @@ pub fn contour(parts: &[Part], jobs: &[Job], out: &mut IndexedMesh) {
                 let mut line = [0i32; 3];
                 line[u] = b0.1[u];
                 line[v] = b0.1[v];
-                let (lo, hi) = r.iter().fold((i32::MIN, i32::MAX), |(lo, hi), &x| {
-                    let b = w.bounds(x);
-                    (lo.max(b.0[axis]), hi.min(b.1[axis]))
-                });
-                w.edge_proc(r, axis, line, lo, hi, false);
+                w.edge_job(r, axis, line);
+            }
+            Job::EdgeAt {
+                parts: p,
+                axis,
+                line,
+            } => {
+                let r = p.map(root);
+                if r.iter().any(|x| x.is_none()) {
+                    continue;
+                }
+                w.edge_job(r, axis, line);
             }
         }
     }
@@ -251,6 +274,7 @@ impl KdTree {
             tree: self,
             offset: IVec3::ZERO,
             threshold,
+            shift: 0,
         }];
         if rayon::current_num_threads() > 1
             && self.comps.len() >= PARALLEL_COMPS
@@ -289,11 +313,22 @@ impl Walker<'_, '_> {
     /// The node's box on the shared lattice.
     fn bounds(&self, r: NodeRef) -> ([i32; 3], [i32; 3]) {
         let nd = self.node(r);
-        let o = self.part(r).offset.to_array();
+        let p = self.part(r);
+        let (o, s) = (p.offset.to_array(), p.shift);
         (
-            [0, 1, 2].map(|a| nd.min[a] as i32 + o[a]),
-            [0, 1, 2].map(|a| nd.max[a] as i32 + o[a]),
+            [0, 1, 2].map(|a| ((nd.min[a] as i32) << s) + o[a]),
+            [0, 1, 2].map(|a| ((nd.max[a] as i32) << s) + o[a]),
         )
+    }
+
+    /// An edge job: the four roots around `line` along `axis`, over the stretch
+    /// all four boxes share.
+    fn edge_job(&mut self, r: [NodeRef; 4], axis: usize, line: [i32; 3]) {
+        let (lo, hi) = r.iter().fold((i32::MIN, i32::MAX), |(lo, hi), &x| {
+            let b = self.bounds(x);
+            (lo.max(b.0[axis]), hi.min(b.1[axis]))
+        });
+        self.edge_proc(r, axis, line, lo, hi, false);
     }
 
     fn split(&self, r: NodeRef) -> (usize, i32, NodeRef, NodeRef) {
@@ -306,9 +341,10 @@ impl Walker<'_, '_> {
                 NodeRef { t: r.t, n: c }
             }
         };
+        let p = self.part(r);
         (
             a,
-            nd.split as i32 + self.part(r).offset[a],
+            ((nd.split as i32) << p.shift) + p.offset[a],
             child(nd.children[0]),
             child(nd.children[1]),
         )
@@ -323,7 +359,8 @@ impl Walker<'_, '_> {
     fn outside(&self, t: u32, g: [i32; 3]) -> bool {
         let p = &self.parts[t as usize];
         let o = p.offset.to_array();
-        p.tree.is_outside([0, 1, 2].map(|a| (g[a] - o[a]) as u32))
+        p.tree
+            .is_outside([0, 1, 2].map(|a| ((g[a] - o[a]) >> p.shift) as u32))
     }
 
     fn cell_proc(&mut self, r: NodeRef) {
@@ -419,7 +456,7 @@ impl Walker<'_, '_> {
     ) {
         if slots.iter().any(|s| s.is_none())
             || lo >= hi
-            || !(crossing || self.has_crossing(slots[0].t, d, line, lo, hi))
+            || !(crossing || self.has_crossing(self.finest(&slots), d, line, lo, hi))
         {
             return;
         }
@@ -490,13 +527,13 @@ impl Walker<'_, '_> {
         let (grid, bits) = (&p.tree.grid, &p.tree.outside);
         let mut g = line;
         g[d] = lo;
-        let g = [0, 1, 2].map(|a| (g[a] - o[a]) as u32);
+        let g = [0, 1, 2].map(|a| ((g[a] - o[a]) >> p.shift) as u32);
         let c = grid.corners();
         let stride = [1, c.x as usize, c.x as usize * c.y as usize][d];
         let mut i = grid.corner_index(g[0], g[1], g[2]);
         let bit = |i: usize| (bits[i / 64] >> (i % 64)) & 1;
         let first = bit(i);
-        for _ in lo..hi {
+        for _ in 0..(hi - lo) >> p.shift {
             i += stride;
             if bit(i) != first {
                 return true;
@@ -506,26 +543,20 @@ impl Walker<'_, '_> {
     }
 
     fn emit(&mut self, slots: [NodeRef; 4], d: usize, line: [i32; 3], lo: i32, hi: i32) {
-        let (u, v) = ((d + 1) % 3, (d + 2) % 3);
-        let t0 = slots[0].t;
+        let t0 = self.finest(&slots);
+        let step = 1 << self.parts[t0 as usize].shift;
         let mut g = line;
         g[d] = lo;
         let mut prev = self.outside(t0, g);
-        for x in lo..hi {
+        let mut x = lo;
+        while x < hi {
             let mut h = g;
-            h[d] = x + 1;
+            h[d] = x + step;
             let next = self.outside(t0, h);
             if next != prev {
                 let mut ids = [0u32; 4];
-                for (q, &(qu, qv)) in QUADRANT.iter().enumerate() {
-                    let mut cell = g;
-                    cell[d] = x;
-                    cell[u] += qu - 1;
-                    cell[v] += qv - 1;
-                    let e = edge_index(d, (1 - qu) as u32, (1 - qv) as u32);
-                    let leaf = slots[q];
-                    let o = self.part(leaf).offset.to_array();
-                    let local = [0, 1, 2].map(|a| (cell[a] - o[a]) as u32);
+                for (q, &leaf) in slots.iter().enumerate() {
+                    let (local, e) = self.seam_cell(leaf, d, line, x, q);
                     let comp = self.part(leaf).tree.comp_of(leaf.n, local, e);
                     ids[q] = self.vertex(leaf, comp);
                 }
@@ -537,6 +568,7 @@ impl Walker<'_, '_> {
                 self.mesh.push_polygon(ids);
             }
             prev = next;
+            x += step;
         }
     }
 

@@ -23,6 +23,14 @@
 //! ([`Grid::offset`]), so a corner shared by two chunks has bitwise the same value
 //! in both.
 
+pub mod conform;
+pub mod layout;
+pub mod levels;
+
+pub use conform::{LevelBuild, Neighbourhood};
+pub use layout::{ChunkKey, Layout};
+pub use levels::{LevelSnapshot, LevelWorld, Seam};
+
 use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::grid::Grid;
@@ -127,12 +135,7 @@ impl ChunkWorld {
                 reason: format!("{chunk_res} cells per chunk; allowed 1 to 4096"),
             });
         }
-        if !threshold.is_finite() {
-            return Err(Error::InvalidSetting {
-                name: "threshold",
-                reason: format!("{threshold} must be finite"),
-            });
-        }
+        check_threshold(threshold)?;
         let world = ChunkWorld {
             origin,
             cell_size,
@@ -392,6 +395,7 @@ impl ChunkWorld {
             tree,
             offset: self.part_offset(c),
             threshold: slot.threshold,
+            shift: 0,
         })
     }
 
@@ -497,6 +501,18 @@ impl ChunkWorld {
     }
 }
 
+/// A chunk threshold must be finite.
+pub(crate) fn check_threshold(threshold: f32) -> Result<()> {
+    if threshold.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::InvalidSetting {
+            name: "threshold",
+            reason: format!("{threshold} must be finite"),
+        })
+    }
+}
+
 /// Sort key: z, then y, then x.
 fn key(c: IVec3) -> (i32, i32, i32) {
     (c.z, c.y, c.x)
@@ -538,6 +554,7 @@ impl ChunkSnapshot {
                 tree: t,
                 offset: *offset,
                 threshold: *threshold,
+                shift: 0,
             })
             .collect();
         contour(&parts, &self.jobs, out);

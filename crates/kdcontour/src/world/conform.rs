@@ -1,0 +1,244 @@
+//! The samples of a chunk in a level layout: the field, except where the chunk
+//! meets a chunk of another level (the rules are in [`super::levels`]).
+
+use super::layout::{ChunkKey, Layout};
+use crate::error::Result;
+use crate::field::Field;
+use crate::grid::Grid;
+use crate::hermite::{self, Hermite};
+use crate::kdtree::{self, KdTree};
+use crate::Settings;
+use glam::{IVec3, UVec3, Vec3};
+
+/// What a chunk's samples depend on besides the field: the layout around it.
+/// A chunk whose neighbourhood changes is rebuilt.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Neighbourhood {
+    /// Per face (`2 * axis + side`): the chunks across are at another level.
+    pub level_faces: [bool; 6],
+    /// The chunks one level coarser that touch it (face, edge or corner).
+    pub coarser: Vec<ChunkKey>,
+}
+
+impl Neighbourhood {
+    /// The neighbourhood of `key` in `layout`.
+    pub fn of(layout: &Layout, key: &ChunkKey) -> Self {
+        Neighbourhood {
+            level_faces: layout.level_faces(key),
+            coarser: layout.coarser_touching(key),
+        }
+    }
+}
+
+/// A chunk build detached from its world (see
+/// [`super::levels::LevelWorld::chunk_build`]).
+#[derive(Clone, Debug)]
+pub struct LevelBuild {
+    /// The chunk.
+    pub key: ChunkKey,
+    /// Its grid (cells of its level, one cell of halo).
+    pub grid: Grid,
+    /// Cells per chunk.
+    pub res: u32,
+    /// The layout around it.
+    pub neighbourhood: Neighbourhood,
+    /// Build settings.
+    pub settings: Settings,
+}
+
+/// The smallest negative sample: inside, and the root search on an edge from it
+/// starts at it and moves along the field.
+const TINY: f32 = -f32::MIN_POSITIVE;
+
+impl LevelBuild {
+    /// Samples the field (with the level rules) and builds the chunk's tree.
+    pub fn run(&self, field: &dyn Field) -> Result<KdTree> {
+        self.settings.run(|| {
+            let values = self.samples(field)?;
+            let h = Hermite::new(field, &self.grid, &values, &self.settings)?;
+            let r = self.res as u16;
+            Ok(kdtree::build_in(
+                &h,
+                self.settings.partition,
+                [1, 1, 1],
+                [r + 1, r + 1, r + 1],
+            ))
+        })?
+    }
+
+    /// The chunk's samples: the field, conformed on the boundaries of coarser
+    /// neighbours, with the halo across level faces forced inside.
+    pub fn samples(&self, field: &dyn Field) -> Result<Vec<f32>> {
+        let mut values = if self.neighbourhood.coarser.is_empty() {
+            hermite::sample(field, &self.grid, &self.settings)?
+        } else {
+            self.conformed(field)?
+        };
+        self.force_halo(&mut values);
+        Ok(values)
+    }
+
+    /// Rule 1 (see [`super::levels`]): on the boundary of a coarser neighbour, a
+    /// coarse edge's midpoint takes its ends' sign where the edge has no crossing;
+    /// where it has one, it is inside if a coarse face around the edge is
+    /// ambiguous, else it keeps the field's sign (the fine crossing is then in the
+    /// half that holds the field's root). A coarse face's centre follows
+    /// [`centre_inside`]. The grid is sampled three fine cells wider, so the
+    /// coarse corners and midpoints around its own points are read from samples
+    /// computed as their owners compute them.
+    fn conformed(&self, field: &dyn Field) -> Result<Vec<f32>> {
+        let res = self.res as i32;
+        let g = &self.grid;
+        // Reads reach three fine cells past the grid: a face centre's midpoints,
+        // and the coarse faces around their coarse edges.
+        let wide = Grid {
+            cells: g.cells + UVec3::splat(6),
+            offset: g.offset - IVec3::splat(3),
+            ..*g
+        };
+        let wv = hermite::sample(field, &wide, &self.settings)?;
+        let real = |p: IVec3| {
+            let l = (p - wide.offset).as_uvec3();
+            wv[wide.corner_index(l.x, l.y, l.z)]
+        };
+        let mean = |vs: &[f32]| {
+            let s: f64 = vs.iter().map(|&v| (v as f64).clamp(-1e30, 1e30)).sum();
+            (s / vs.len() as f64) as f32
+        };
+        let inside = |p: IVec3| real(p) < 0.0;
+        // A coarse edge midpoint `p` (odd along `a` only).
+        let mid = |p: IVec3, a: usize| {
+            let ea = IVec3::AXES[a];
+            let (e0, e1) = (real(p - ea), real(p + ea));
+            if (e0 < 0.0) == (e1 < 0.0) {
+                return mean(&[e0, e1]);
+            }
+            // A coarse face around the edge with alternating corners.
+            let ambiguous = [(a + 1) % 3, (a + 2) % 3].iter().any(|&b| {
+                [-2, 2].iter().any(|&s| {
+                    let o = IVec3::AXES[b] * s;
+                    inside(p - ea) == inside(p + ea + o) && inside(p + ea) == inside(p - ea + o)
+                })
+            });
+            let v = real(p);
+            if ambiguous && v >= 0.0 {
+                TINY
+            } else {
+                v
+            }
+        };
+        let boxes: Vec<(IVec3, IVec3)> = self
+            .neighbourhood
+            .coarser
+            .iter()
+            .map(|c| (c.coord * res * 2, (c.coord + IVec3::ONE) * res * 2))
+            .collect();
+        let on_boundary = |p: IVec3| {
+            boxes.iter().any(|(lo, hi)| {
+                p.cmpge(*lo).all()
+                    && p.cmple(*hi).all()
+                    && (p.cmpeq(*lo).any() || p.cmpeq(*hi).any())
+            })
+        };
+        let n = g.corners();
+        let mut values = vec![0f32; g.corner_count() as usize];
+        for z in 0..n.z {
+            for y in 0..n.y {
+                for x in 0..n.x {
+                    let p = g.offset + UVec3::new(x, y, z).as_ivec3();
+                    let odd: Vec<usize> = (0..3).filter(|&a| p[a] & 1 == 1).collect();
+                    let i = g.corner_index(x, y, z);
+                    values[i] = match odd[..] {
+                        [a] if on_boundary(p) => mid(p, a),
+                        [a, b] if on_boundary(p) => {
+                            let (ea, eb) = (IVec3::AXES[a], IVec3::AXES[b]);
+                            // Corners (00, 10, 11, 01 in a, b) and the midpoints
+                            // between them in the same cyclic order.
+                            let corner = [
+                                real(p - ea - eb),
+                                real(p + ea - eb),
+                                real(p + ea + eb),
+                                real(p - ea + eb),
+                            ];
+                            let mids = [
+                                mid(p - eb, a),
+                                mid(p + ea, b),
+                                mid(p + eb, a),
+                                mid(p - ea, b),
+                            ];
+                            let inside = centre_inside(corner, mids);
+                            let v = real(p);
+                            let around: Vec<f32> = corner.iter().chain(&mids).copied().collect();
+                            if (v < 0.0) == inside {
+                                v
+                            } else if !inside {
+                                mean(&around).max(0.0)
+                            } else {
+                                mean(&around).min(TINY)
+                            }
+                        }
+                        _ => real(p),
+                    };
+                }
+            }
+        }
+        Ok(values)
+    }
+
+    /// Rule 2: across a face whose neighbours are at another level, the halo layer
+    /// is inside, so the chunk's ambiguous faces there separate their outside
+    /// corners (join their inside ones), on both sides of the seam.
+    fn force_halo(&self, values: &mut [f32]) {
+        let r = self.res + 1;
+        for (f, &level) in self.neighbourhood.level_faces.iter().enumerate() {
+            if !level {
+                continue;
+            }
+            let (a, side) = (f / 2, f % 2);
+            let (u, v) = ((a + 1) % 3, (a + 2) % 3);
+            for i in 1..=r {
+                for j in 1..=r {
+                    let mut c = [0u32; 3];
+                    c[a] = if side == 1 { r + 1 } else { 0 };
+                    c[u] = i;
+                    c[v] = j;
+                    let k = self.grid.corner_index(c[0], c[1], c[2]);
+                    values[k] = -values[k].abs().max(f32::MIN_POSITIVE);
+                }
+            }
+        }
+    }
+}
+
+/// Whether a coarse face's centre is inside, from its corners and edge midpoints
+/// (both in cyclic order, midpoint `i` between corners `i` and `i + 1`): inside
+/// on an ambiguous face (its inside corners join through the centre, as the
+/// coarse side resolves it); otherwise the sign that leaves no fine quarter of
+/// the face ambiguous and joins the centre to a midpoint: the midpoints' sign
+/// when a corner's two midpoints both differ from it, else inside when any
+/// midpoint is.
+fn centre_inside(corner: [f32; 4], mids: [f32; 4]) -> bool {
+    let c = corner.map(|v| v < 0.0);
+    let m = mids.map(|v| v < 0.0);
+    if c[0] == c[2] && c[1] == c[3] && c[0] != c[1] {
+        return true;
+    }
+    for i in 0..4 {
+        let (before, after) = (m[(i + 3) % 4], m[i]);
+        if before == after && before != c[i] {
+            return before;
+        }
+    }
+    m.iter().any(|&x| x)
+}
+
+/// The grid of chunk `key` (its level's cells, one cell of halo), on the lattice
+/// of `origin` and level-0 `cell_size`.
+pub fn level_grid(origin: Vec3, cell_size: f32, res: u32, key: &ChunkKey) -> Grid {
+    Grid {
+        origin,
+        cell_size: cell_size * (1u64 << key.level) as f32,
+        cells: UVec3::splat(res + 2),
+        offset: key.coord * res as i32 - IVec3::ONE,
+    }
+}

@@ -1,0 +1,390 @@
+//! A world of chunks at several levels of detail: a chunk at level `k` has cells
+//! of side `cell_size * 2^k` and the same `chunk_res` cells per side, so it covers
+//! `2^k` level-0 chunks per axis. A [`Layout`] says which chunk covers what; it
+//! is balanced (touching chunks differ by at most one level). Each chunk keeps its
+//! own retained tree and threshold, and seams join across levels with no skirts,
+//! transition cells or overlap.
+//!
+//! All levels sit on one lattice: a level-`k` sample is the level-0 lattice point
+//! `2^k` times its index, computed in the same way at every level, so where two
+//! levels' samples coincide they are bitwise the same.
+//!
+//! ## Level seams
+//! Where a chunk meets one a level coarser, the finer side sees lattice points the
+//! coarse side does not: the midpoints of coarse edges and the centres of coarse
+//! faces. Two rules make both sides see one contour on the shared boundary:
+//!
+//! 1. **The finer side conforms.** On the closed box of a coarser neighbour, a
+//!    coarse edge's midpoint keeps the field's sign when the coarse edge has a
+//!    crossing (the fine crossing then lies in the half that holds the field's
+//!    root, so it is found on the field) and takes its ends' sign when it has
+//!    none: a coarse edge has one fine crossing exactly when it has a crossing. A
+//!    coarse face's centre is inside when the face is ambiguous; otherwise it
+//!    takes the sign that leaves no fine quarter of the face ambiguous and joins
+//!    it to a midpoint ([`super::conform`]). The fine contour on a coarse face
+//!    then runs between the same coarse edges as the coarse contour: one segment
+//!    stays one curve, and an ambiguous face joins its inside corners through the
+//!    centre. Every chunk of the finer level computes the same samples there, so
+//!    fine neighbours agree too.
+//! 2. **Both sides separate.** Across a face whose neighbours are at another
+//!    level, a chunk's halo samples are inside, so every ambiguous face on a level
+//!    seam, coarse or fine, separates its outside corners and joins its inside
+//!    ones: the resolution rule 1 gives the coarse faces.
+//!
+//! The seam walk ([`crate::kdtree::contour`]) places every chunk on the level-0
+//! lattice with its own [`Part::shift`]: a coarse node's box is its cells times
+//! `2^level`. It reads a seam line's signs from the finest tree around it, steps
+//! along it by that tree's cells, and maps each fine crossing to each quadrant's
+//! leaf: on a coarse edge to that edge; through the middle of a coarse face (a
+//! fine edge from a coarse edge's midpoint to the face centre) to the coarse edge
+//! through that midpoint when it crosses (the fine curve there cuts off the same
+//! corner as that edge's coarse segment), else to any crossing edge of the face
+//! (which then holds a single segment).
+//!
+//! Chunks whose neighbourhood ([`Neighbourhood`]) changes with a new layout are
+//! rebuilt: [`LevelWorld::set_layout`] lists them.
+//!
+//! ## Seam ownership
+//! - A **face seam** (two chunks whose faces overlap) belongs to the finer chunk;
+//!   between equal levels to the lower one, as in [`super::ChunkWorld`].
+//! - An **edge seam** (the chunks around a stretch of a chunk edge, in quadrant
+//!   order; a coarser chunk may fill two quadrants) belongs to its finest chunk,
+//!   the first in quadrant order among equals: between equal levels, the lowest.
+//!
+//! A chunk's mesh is its interior plus the seams it owns; when chunk `c` changes,
+//! re-extract `c` and the chunks in [`LevelWorld::seam_owners_touching`]`(c)`.
+
+mod seams;
+
+pub use seams::{LevelSnapshot, Seam};
+
+use super::conform::{level_grid, LevelBuild, Neighbourhood};
+use super::layout::{ChunkKey, Layout};
+use crate::error::{Error, Result};
+use crate::field::Field;
+use crate::grid::Grid;
+use crate::kdtree::{contour, Job, KdTree, Part};
+use crate::mesh::IndexedMesh;
+use crate::Settings;
+use glam::{IVec3, Vec3};
+use std::collections::HashMap;
+use std::sync::Arc;
+
+/// One chunk: its tree (once built), the neighbourhood it was built for, its
+/// threshold.
+struct Slot {
+    tree: Option<Arc<KdTree>>,
+    built_for: Neighbourhood,
+    threshold: f32,
+}
+
+/// A bounded world of chunks at several levels (see the module docs).
+pub struct LevelWorld {
+    /// World position of lattice corner (0, 0, 0).
+    pub origin: Vec3,
+    /// Side of a level-0 cell (world units).
+    pub cell_size: f32,
+    /// Cells per chunk along each axis, at every level (even).
+    pub chunk_res: u32,
+    /// Build settings used for every chunk.
+    pub settings: Settings,
+    layout: Layout,
+    default_threshold: f32,
+    slots: HashMap<ChunkKey, Slot>,
+}
+
+impl LevelWorld {
+    /// A world over `layout`, no chunk built yet; every chunk starts at
+    /// `threshold`.
+    pub fn new(
+        origin: Vec3,
+        cell_size: f32,
+        chunk_res: u32,
+        layout: Layout,
+        threshold: f32,
+        settings: Settings,
+    ) -> Result<Self> {
+        if !(2..=4096).contains(&chunk_res) || !chunk_res.is_multiple_of(2) {
+            return Err(Error::InvalidSetting {
+                name: "chunk_res",
+                reason: format!("{chunk_res} cells per chunk; allowed even, 2 to 4096"),
+            });
+        }
+        super::check_threshold(threshold)?;
+        let mut world = LevelWorld {
+            origin,
+            cell_size,
+            chunk_res,
+            settings,
+            layout: Layout::uniform(IVec3::ZERO, IVec3::ONE, 0)?,
+            default_threshold: threshold,
+            slots: HashMap::new(),
+        };
+        world.set_layout(layout)?;
+        Ok(world)
+    }
+
+    /// The layout.
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// Replaces the layout. Chunks that leave it are dropped, new ones start
+    /// unbuilt at the default threshold, kept ones keep their tree and threshold.
+    /// Returns the chunks to (re)build: the new ones and the kept ones whose
+    /// neighbourhood changed (see [`LevelWorld::stale`]).
+    pub fn set_layout(&mut self, layout: Layout) -> Result<Vec<ChunkKey>> {
+        layout.check()?;
+        let far =
+            layout.lo().abs().max(layout.hi().abs()).max_element() as i64 * self.chunk_res as i64;
+        if far >= 1 << 30 {
+            return Err(Error::InvalidSetting {
+                name: "layout",
+                reason: format!(
+                    "{}..{} is more than 2^30 cells out",
+                    layout.lo(),
+                    layout.hi()
+                ),
+            });
+        }
+        self.slots.retain(|k, _| layout.contains(k));
+        for k in layout.chunks() {
+            self.slots.entry(k).or_insert(Slot {
+                tree: None,
+                built_for: Neighbourhood::default(),
+                threshold: self.default_threshold,
+            });
+        }
+        self.layout = layout;
+        Ok(self.stale())
+    }
+
+    /// The chunks without a tree, or whose tree was built for another
+    /// neighbourhood than the layout now gives them, in layout order.
+    pub fn stale(&self) -> Vec<ChunkKey> {
+        self.layout
+            .chunks()
+            .into_iter()
+            .filter(|k| {
+                let s = &self.slots[k];
+                s.tree.is_none() || s.built_for != Neighbourhood::of(&self.layout, k)
+            })
+            .collect()
+    }
+
+    /// Every chunk, in layout order ([`ChunkKey::order`]).
+    pub fn chunks(&self) -> Vec<ChunkKey> {
+        self.layout.chunks()
+    }
+
+    fn slot(&self, k: &ChunkKey) -> &Slot {
+        self.slots
+            .get(k)
+            .unwrap_or_else(|| panic!("chunk {k:?} is not in the layout"))
+    }
+
+    fn slot_mut(&mut self, k: &ChunkKey) -> &mut Slot {
+        self.slots
+            .get_mut(k)
+            .unwrap_or_else(|| panic!("chunk {k:?} is not in the layout"))
+    }
+
+    /// The grid chunk `k` samples: its cells plus one cell of halo on every side.
+    pub fn chunk_grid(&self, k: &ChunkKey) -> Grid {
+        level_grid(self.origin, self.cell_size, self.chunk_res, k)
+    }
+
+    /// The world box of chunk `k` (min, max).
+    pub fn chunk_bounds(&self, k: &ChunkKey) -> (Vec3, Vec3) {
+        let side = self.chunk_res as f32 * self.cell_size;
+        (
+            self.origin + k.lo().as_vec3() * side,
+            self.origin + k.hi().as_vec3() * side,
+        )
+    }
+
+    /// World point `p` in level-0 chunk units (for [`Layout::around`]).
+    pub fn to_chunk_units(&self, p: Vec3) -> Vec3 {
+        (p - self.origin) / (self.chunk_res as f32 * self.cell_size)
+    }
+
+    /// Everything needed to build chunk `k` elsewhere (a task, another thread).
+    pub fn chunk_build(&self, k: &ChunkKey) -> LevelBuild {
+        LevelBuild {
+            key: *k,
+            grid: self.chunk_grid(k),
+            res: self.chunk_res,
+            neighbourhood: Neighbourhood::of(&self.layout, k),
+            settings: self.settings.clone(),
+        }
+    }
+
+    /// Installs a tree built by [`LevelBuild::run`] for chunk `build.key`.
+    pub fn insert_tree(&mut self, build: &LevelBuild, tree: KdTree) {
+        let s = self.slot_mut(&build.key);
+        s.tree = Some(Arc::new(tree));
+        s.built_for = build.neighbourhood.clone();
+    }
+
+    /// Samples `field` for chunk `k` and builds its tree (replacing an old one).
+    pub fn build_chunk(&mut self, k: &ChunkKey, field: &dyn Field) -> Result<()> {
+        let b = self.chunk_build(k);
+        let tree = b.run(field)?;
+        self.insert_tree(&b, tree);
+        Ok(())
+    }
+
+    /// Builds the chunks in `keys` (in parallel over chunks).
+    pub fn build(&mut self, keys: &[ChunkKey], field: &dyn Field) -> Result<()> {
+        use rayon::prelude::*;
+        let inner = Settings {
+            threads: 0,
+            ..self.settings.clone()
+        };
+        let builds: Vec<LevelBuild> = keys
+            .iter()
+            .map(|k| LevelBuild {
+                settings: inner.clone(),
+                ..self.chunk_build(k)
+            })
+            .collect();
+        let trees: Vec<Result<KdTree>> = self
+            .settings
+            .run(|| builds.par_iter().map(|b| b.run(field)).collect())?;
+        for (b, t) in builds.iter().zip(trees) {
+            self.insert_tree(b, t?);
+        }
+        Ok(())
+    }
+
+    /// Builds every chunk.
+    pub fn build_all(&mut self, field: &dyn Field) -> Result<()> {
+        self.build(&self.chunks(), field)
+    }
+
+    /// Builds the chunks [`LevelWorld::stale`] lists; returns them.
+    pub fn build_stale(&mut self, field: &dyn Field) -> Result<Vec<ChunkKey>> {
+        let stale = self.stale();
+        self.build(&stale, field)?;
+        Ok(stale)
+    }
+
+    /// The chunks an edit within `radius` of `center` (world units) reaches: those
+    /// whose box, grown by two of their own cells, meets that ball (a chunk samples
+    /// one cell of halo, and one more where it conforms to a coarser neighbour).
+    /// Rebuild them with [`LevelWorld::build`]; every level that covers the edit
+    /// is among them.
+    pub fn chunks_near_edit(&self, center: Vec3, radius: f32) -> Vec<ChunkKey> {
+        self.chunks()
+            .into_iter()
+            .filter(|k| {
+                let (lo, hi) = self.chunk_bounds(k);
+                let grow = 2.0 * self.chunk_grid(k).cell_size;
+                center.clamp(lo - grow, hi + grow).distance(center) <= radius
+            })
+            .collect()
+    }
+
+    /// The tree of chunk `k`, if built.
+    pub fn tree(&self, k: &ChunkKey) -> Option<&KdTree> {
+        self.slot(k).tree.as_deref()
+    }
+
+    /// The threshold chunk `k` is cut at (squared cells of its own level).
+    pub fn threshold(&self, k: &ChunkKey) -> f32 {
+        self.slot(k).threshold
+    }
+
+    /// Sets chunk `k`'s threshold. Re-extract `k` and the seams of
+    /// [`LevelWorld::seam_owners_touching`]`(k)` to show it.
+    pub fn set_threshold(&mut self, k: &ChunkKey, threshold: f32) {
+        self.slot_mut(k).threshold = threshold;
+    }
+
+    /// Bytes held by all retained trees.
+    pub fn retained_bytes(&self) -> usize {
+        self.slots
+            .values()
+            .filter_map(|s| s.tree.as_ref())
+            .map(|t| t.retained_bytes())
+            .sum()
+    }
+
+    fn part(&self, k: &ChunkKey) -> Option<Part<'_>> {
+        let slot = self.slots.get(k)?;
+        slot.tree.as_deref().map(|tree| Part {
+            tree,
+            offset: (k.coord * self.chunk_res as i32 - IVec3::ONE) << k.level as i32,
+            threshold: slot.threshold,
+            shift: k.level,
+        })
+    }
+
+    /// Contours `seams` (and the insides of `cells`) over the built chunks they
+    /// need, into `out` (appended).
+    fn contour_seams(&self, cells: &[ChunkKey], seams: &[Seam], out: &mut IndexedMesh) {
+        let mut keys: Vec<ChunkKey> = Vec::new();
+        let mut parts: Vec<Part> = Vec::new();
+        let mut index = |k: ChunkKey| -> Option<usize> {
+            if let Some(i) = keys.iter().position(|x| *x == k) {
+                return Some(i);
+            }
+            parts.push(self.part(&k)?);
+            keys.push(k);
+            Some(keys.len() - 1)
+        };
+        let mut jobs = Vec::new();
+        for c in cells {
+            if let Some(i) = index(*c) {
+                jobs.push(Job::Cell(i));
+            }
+        }
+        for s in seams {
+            if let Some(j) = self.job(s, &mut index) {
+                jobs.push(j);
+            }
+        }
+        contour(&parts, &jobs, out);
+    }
+
+    /// Contours the inside of chunk `k` at its threshold into `out` (cleared).
+    pub fn extract_interior(&self, k: &ChunkKey, out: &mut IndexedMesh) {
+        out.reset();
+        self.contour_seams(&[*k], &[], out);
+    }
+
+    /// Contours the seams chunk `k` owns into `out` (cleared), each chunk at its
+    /// own threshold and level.
+    pub fn extract_seams(&self, k: &ChunkKey, out: &mut IndexedMesh) {
+        out.reset();
+        if self.part(k).is_some() {
+            self.contour_seams(&[], &self.owned_seams(k), out);
+        }
+    }
+
+    /// The whole world as one welded mesh: every built chunk's interior and every
+    /// seam between built chunks, vertices shared.
+    pub fn extract_all(&self) -> IndexedMesh {
+        let chunks: Vec<ChunkKey> = self
+            .chunks()
+            .into_iter()
+            .filter(|k| self.part(k).is_some())
+            .collect();
+        let index_of: HashMap<ChunkKey, usize> =
+            chunks.iter().enumerate().map(|(i, &k)| (k, i)).collect();
+        let parts: Vec<Part> = chunks.iter().filter_map(|k| self.part(k)).collect();
+        let mut index = |k: ChunkKey| index_of.get(&k).copied();
+        let mut jobs = Vec::new();
+        for (i, k) in chunks.iter().enumerate() {
+            jobs.push(Job::Cell(i));
+            for s in self.owned_seams(k) {
+                if let Some(j) = self.job(&s, &mut index) {
+                    jobs.push(j);
+                }
+            }
+        }
+        let mut out = IndexedMesh::default();
+        contour(&parts, &jobs, &mut out);
+        out
+    }
+}

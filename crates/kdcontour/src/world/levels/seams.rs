@@ -1,0 +1,265 @@
+//! The seams of a level world: which chunks meet where, who owns each seam, and
+//! the seam walk's jobs (the rules are in the parent module's docs).
+
+use super::LevelWorld;
+use crate::kdtree::{contour, Job, KdTree, Part};
+use crate::mesh::IndexedMesh;
+use crate::world::layout::ChunkKey;
+use glam::IVec3;
+use std::sync::Arc;
+
+/// [`ChunkKey::order`]'s key.
+type SortKey = (i32, i32, i32, u32);
+
+/// A seam between chunks of a level world.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Seam {
+    /// Two chunks whose faces overlap: `low` below the face along `axis`.
+    Face {
+        /// The chunk below.
+        low: ChunkKey,
+        /// The chunk above.
+        high: ChunkKey,
+        /// The face's axis.
+        axis: usize,
+    },
+    /// The chunks around a stretch of chunk edge along `axis`, in quadrant order.
+    Edge {
+        /// The four chunks (one may fill two quadrants).
+        parts: [ChunkKey; 4],
+        /// The edge's axis.
+        axis: usize,
+        /// The edge line in level-0 chunks (the coordinate along `axis` unused).
+        line: IVec3,
+    },
+}
+
+impl Seam {
+    /// The chunk that owns the seam.
+    pub fn owner(&self) -> ChunkKey {
+        match *self {
+            Seam::Face { low, high, .. } => {
+                if high.level < low.level {
+                    high
+                } else {
+                    low
+                }
+            }
+            Seam::Edge { parts, .. } => {
+                let mut best = parts[0];
+                for p in &parts[1..] {
+                    if p.level < best.level {
+                        best = *p;
+                    }
+                }
+                best
+            }
+        }
+    }
+
+    /// The chunks it joins.
+    pub fn chunks(&self) -> Vec<ChunkKey> {
+        match *self {
+            Seam::Face { low, high, .. } => vec![low, high],
+            Seam::Edge { parts, .. } => parts.to_vec(),
+        }
+    }
+
+    /// Order of a chunk's owned seams: by axis, the face before the edges (as
+    /// [`super::ChunkWorld`] orders them), then by position.
+    fn order(&self) -> (usize, u8, [SortKey; 4]) {
+        let z = (0, 0, 0, 0);
+        match *self {
+            Seam::Face { low, high, axis } => (axis, 0, [low.order(), high.order(), z, z]),
+            Seam::Edge { parts, axis, .. } => (axis, 1, parts.map(|p| p.order())),
+        }
+    }
+}
+
+impl LevelWorld {
+    /// Every seam that involves chunk `k` (built or not), each once.
+    pub fn seams_of(&self, k: &ChunkKey) -> Vec<Seam> {
+        let mut out = Vec::new();
+        let l = &self.layout;
+        // Faces: the chunks across each face of k whose faces overlap k's.
+        for a in 0..3 {
+            for side in [-1, 1] {
+                let mut probe = k.lo();
+                if side == 1 {
+                    probe[a] = k.hi()[a];
+                } else {
+                    probe[a] -= 1;
+                }
+                let (u, v) = ((a + 1) % 3, (a + 2) % 3);
+                // Neighbours are at most one level finer: one probe per quarter.
+                let step = (k.side() / 2).max(1);
+                for i in 0..k.side() / step {
+                    for j in 0..k.side() / step {
+                        let mut p = probe;
+                        p[u] += i * step;
+                        p[v] += j * step;
+                        let Some(n) = l.chunk_at(p) else { continue };
+                        let (low, high) = if side == 1 { (*k, n) } else { (n, *k) };
+                        let s = Seam::Face { low, high, axis: a };
+                        if !out.contains(&s) {
+                            out.push(s);
+                        }
+                    }
+                }
+            }
+        }
+        // Edges: around each of k's 12 edges, stretch by stretch (half edges:
+        // finer neighbours are half as long).
+        for d in 0..3 {
+            let (u, v) = ((d + 1) % 3, (d + 2) % 3);
+            for ou in 0..2 {
+                for ov in 0..2 {
+                    let mut line = k.lo();
+                    line[u] += ou * k.side();
+                    line[v] += ov * k.side();
+                    let steps = k.side().max(2) / 2;
+                    for h in 0..k.side() / steps {
+                        let mut parts = [*k; 4];
+                        let mut ok = true;
+                        for (q, (qu, qv)) in
+                            [(0, 0), (1, 0), (1, 1), (0, 1)].into_iter().enumerate()
+                        {
+                            let mut p = line;
+                            p[d] += h * steps;
+                            p[u] += qu - 1;
+                            p[v] += qv - 1;
+                            match l.chunk_at(p) {
+                                Some(n) => parts[q] = n,
+                                None => ok = false,
+                            }
+                        }
+                        let distinct = parts
+                            .iter()
+                            .enumerate()
+                            .filter(|(i, p)| !parts[..*i].contains(p))
+                            .count();
+                        let s = Seam::Edge {
+                            parts,
+                            axis: d,
+                            line,
+                        };
+                        if ok && distinct >= 3 && !out.contains(&s) {
+                            out.push(s);
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// The seams chunk `k` owns, in extraction order.
+    pub fn owned_seams(&self, k: &ChunkKey) -> Vec<Seam> {
+        let mut v: Vec<Seam> = self
+            .seams_of(k)
+            .into_iter()
+            .filter(|s| s.owner() == *k)
+            .collect();
+        v.sort_by_key(|s| s.order());
+        v
+    }
+
+    /// The chunks whose owned seams touch chunk `k`, `k` first.
+    pub fn seam_owners_touching(&self, k: &ChunkKey) -> Vec<ChunkKey> {
+        let mut out = vec![*k];
+        for s in self.seams_of(k) {
+            let o = s.owner();
+            if !out.contains(&o) {
+                out.push(o);
+            }
+        }
+        out
+    }
+
+    /// The job for `seam` over the parts indexed by `index`; `None` when a chunk
+    /// is not built.
+    pub(super) fn job(
+        &self,
+        seam: &Seam,
+        index: &mut impl FnMut(ChunkKey) -> Option<usize>,
+    ) -> Option<Job> {
+        let res = self.chunk_res as i32;
+        Some(match *seam {
+            Seam::Face { low, high, axis } => Job::Face {
+                low: index(low)?,
+                high: index(high)?,
+                axis,
+            },
+            Seam::Edge { parts, axis, line } => {
+                let mut p = [0; 4];
+                for (q, k) in parts.iter().enumerate() {
+                    p[q] = index(*k)?;
+                }
+                Job::EdgeAt {
+                    parts: p,
+                    axis,
+                    line: (line * res).to_array(),
+                }
+            }
+        })
+    }
+
+    /// What extracting chunk `k` (interior and owned seams) needs, detached from
+    /// the world so a task can run it. `None` when `k` has no tree.
+    pub fn snapshot(&self, k: &ChunkKey) -> Option<LevelSnapshot> {
+        self.part(k)?;
+        let mut keys: Vec<ChunkKey> = vec![*k];
+        let mut index = |c: ChunkKey| -> Option<usize> {
+            if let Some(i) = keys.iter().position(|x| *x == c) {
+                return Some(i);
+            }
+            self.part(&c)?;
+            keys.push(c);
+            Some(keys.len() - 1)
+        };
+        let mut jobs = vec![Job::Cell(0)];
+        for s in self.owned_seams(k) {
+            if let Some(j) = self.job(&s, &mut index) {
+                jobs.push(j);
+            }
+        }
+        let parts = keys
+            .iter()
+            .map(|c| {
+                let p = self.part(c).expect("listed chunks are built");
+                (
+                    self.slots[c].tree.clone().expect("built"),
+                    p.offset,
+                    p.threshold,
+                    p.shift,
+                )
+            })
+            .collect();
+        Some(LevelSnapshot { parts, jobs })
+    }
+}
+
+/// A chunk's extraction detached from its world (see [`LevelWorld::snapshot`]).
+#[derive(Clone)]
+pub struct LevelSnapshot {
+    parts: Vec<(Arc<KdTree>, IVec3, f32, u32)>,
+    jobs: Vec<Job>,
+}
+
+impl LevelSnapshot {
+    /// Contours the chunk's interior and its owned seams into `out` (cleared).
+    pub fn extract(&self, out: &mut IndexedMesh) {
+        out.reset();
+        let parts: Vec<Part> = self
+            .parts
+            .iter()
+            .map(|(tree, offset, threshold, shift)| Part {
+                tree,
+                offset: *offset,
+                threshold: *threshold,
+                shift: *shift,
+            })
+            .collect();
+        contour(&parts, &self.jobs, out);
+    }
+}

@@ -1,0 +1,384 @@
+//! Chunk levels: worlds whose chunks double their cells with distance weld into one
+//! closed, 2-manifold, consistently oriented mesh across level seams; level
+//! changes and edits keep it so; threads agree; coarse chunks keep their error
+//! bound in their own cells.
+
+use glam::{IVec3, UVec3, Vec3};
+use kdcontour::edit::{Brush, BrushOp, EditedField};
+use kdcontour::world::{ChunkKey, Layout, LevelWorld, Seam};
+use kdcontour::{scenes, validate, ChunkWorld, Field, IndexedMesh, Settings};
+use std::sync::Arc;
+
+/// Level-0 chunks per axis of the test region (four level-2 chunks), cells per
+/// chunk: 128 level-0 cells across [-1, 1].
+const REGION: i32 = 16;
+const RES: u32 = 8;
+const THRESHOLDS: [f32; 6] = [-1.0, 0.001, 0.01, 0.1, 1.0, 10.0];
+/// `caves` at threshold 10 has one non-manifold edge in a plain single-level
+/// `ChunkWorld` of 8^3 chunks of 8 cells too (a clustering case at same-level
+/// seams, not a level seam), so its thresholds stop at 1.
+const CAVES_THRESHOLDS: usize = 5;
+
+struct Lcg(u64);
+impl Lcg {
+    fn next(&mut self) -> usize {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 33) as usize
+    }
+}
+
+fn region() -> (IVec3, IVec3) {
+    (IVec3::ZERO, IVec3::splat(REGION))
+}
+
+fn random_layout(seed: u64) -> Layout {
+    let (lo, hi) = region();
+    Layout::random(lo, hi, 2, 0.3, seed).unwrap()
+}
+
+fn level_world(field: &dyn Field, layout: Layout, settings: Settings) -> LevelWorld {
+    let cell = 2.0 / (REGION as u32 * RES) as f32;
+    let mut w = LevelWorld::new(Vec3::splat(-1.0), cell, RES, layout, 0.01, settings).unwrap();
+    w.build_all(field).unwrap();
+    w
+}
+
+fn randomise(w: &mut LevelWorld, rng: &mut Lcg, n: usize) {
+    for k in w.chunks() {
+        w.set_threshold(&k, THRESHOLDS[rng.next() % n]);
+    }
+}
+
+/// Face and edge seams between chunks of different levels.
+fn level_seams(w: &LevelWorld) -> usize {
+    let mut n = 0;
+    for k in w.chunks() {
+        for s in w.owned_seams(&k) {
+            let levels: Vec<u32> = s.chunks().iter().map(|c| c.level).collect();
+            if levels.iter().any(|&l| l != levels[0]) {
+                n += 1;
+            }
+        }
+    }
+    n
+}
+
+/// The welded world mesh is closed, manifold and oriented, and the chunk meshes
+/// (interior + owned seams, or a snapshot) add up to it.
+fn check(w: &LevelWorld, what: &str) -> IndexedMesh {
+    let m = w.extract_all();
+    let r = validate(&m, None);
+    assert!(r.triangles > 0 && r.is_closed_manifold(), "{what}: {r:?}");
+    let mut parts = 0;
+    let mut one = IndexedMesh::default();
+    let mut snap = IndexedMesh::default();
+    for k in w.chunks() {
+        w.extract_interior(&k, &mut one);
+        let mut n = one.triangle_count();
+        w.extract_seams(&k, &mut one);
+        n += one.triangle_count();
+        // A detached snapshot extracts the same triangles.
+        if let Some(s) = w.snapshot(&k) {
+            s.extract(&mut snap);
+            assert_eq!(snap.triangle_count(), n, "{what}: snapshot of {k:?}");
+        }
+        parts += n;
+    }
+    assert_eq!(
+        parts,
+        m.triangle_count(),
+        "{what}: chunk meshes do not add up"
+    );
+    m
+}
+
+#[test]
+fn level_zero_layout_is_the_chunk_world_bit_for_bit() {
+    let scene = scenes::scene("torus").unwrap();
+    let cell = 2.0 / 36.0;
+    let layout = Layout::uniform(IVec3::ZERO, IVec3::splat(3), 0).unwrap();
+    let mut lw = LevelWorld::new(
+        Vec3::splat(-1.0),
+        cell,
+        12,
+        layout,
+        0.01,
+        Settings::default(),
+    )
+    .unwrap();
+    lw.build_all(&*scene.field).unwrap();
+    let mut cw = ChunkWorld::new(
+        Vec3::splat(-1.0),
+        cell,
+        12,
+        UVec3::splat(3),
+        0.01,
+        Settings::default(),
+    )
+    .unwrap();
+    cw.build_all(&*scene.field).unwrap();
+    let mut rng = Lcg(1);
+    for c in cw.coords() {
+        let e = THRESHOLDS[rng.next() % THRESHOLDS.len()];
+        cw.set_threshold(c, e);
+        lw.set_threshold(&ChunkKey::new(0, c), e);
+    }
+    assert_eq!(lw.extract_all(), cw.extract_all());
+}
+
+#[test]
+fn random_levels_and_thresholds_weld_closed() {
+    let mut rng = Lcg(7);
+    let mut mixed = 0;
+    let mut top = 0;
+    for name in ["sphere", "torus", "gyroid", "csg_mix", "caves", "disk_pole"] {
+        let scene = scenes::scene(name).unwrap();
+        for seed in 0..4u64 {
+            let layout = random_layout(seed);
+            let counts = layout.level_counts();
+            top += counts.get(2).copied().unwrap_or(0);
+            let mut w = level_world(&*scene.field, layout, Settings::default());
+            mixed += level_seams(&w);
+            let n = if name == "caves" {
+                CAVES_THRESHOLDS
+            } else {
+                THRESHOLDS.len()
+            };
+            for round in 0..2 {
+                randomise(&mut w, &mut rng, n);
+                let what = format!("{name} seed {seed} round {round}");
+                let m = check(&w, &what);
+                // Smooth shapes keep their topology at every level.
+                let euler = validate(&m, None).euler;
+                match name {
+                    "sphere" => assert_eq!(euler, 2, "{what}"),
+                    "torus" => assert_eq!(euler, 0, "{what}"),
+                    _ => {}
+                }
+                println!(
+                    "{name} seed {seed} round {round}: levels {counts:?}, {} triangles",
+                    m.triangle_count()
+                );
+            }
+        }
+    }
+    assert!(
+        mixed > 100 && top > 0,
+        "{mixed} level seams, {top} level-2 chunks"
+    );
+}
+
+#[test]
+fn camera_levels_inside_and_outside_weld_closed() {
+    let (lo, hi) = region();
+    for name in ["torus", "csg_mix", "gyroid"] {
+        let scene = scenes::scene(name).unwrap();
+        for camera in [
+            Vec3::new(0.3, 0.2, -0.1),
+            Vec3::new(-0.9, 0.8, 0.95),
+            Vec3::new(3.0, 2.0, -1.5),
+        ] {
+            let probe = level_world(
+                &*scene.field,
+                Layout::uniform(lo, hi, 2).unwrap(),
+                Settings::default(),
+            );
+            let layout = Layout::around(lo, hi, 2, probe.to_chunk_units(camera), 1.0).unwrap();
+            let counts = layout.level_counts();
+            assert!(counts.len() == 3, "{name} {camera}: {counts:?}");
+            let w = level_world(&*scene.field, layout, Settings::default());
+            let m = check(&w, &format!("{name} camera {camera}"));
+            println!(
+                "{name} camera {camera}: levels {counts:?}, {} triangles, {} level seams",
+                m.triangle_count(),
+                level_seams(&w)
+            );
+        }
+    }
+}
+
+#[test]
+fn level_changes_and_edits_rebuild_the_stale_chunks_and_stay_closed() {
+    let base: Arc<dyn Field> = scenes::scene("torus").unwrap().field.into();
+    let mut field = EditedField::new(base);
+    let mut w = level_world(&field, random_layout(3), Settings::default());
+    let mut rng = Lcg(11);
+    randomise(&mut w, &mut rng, THRESHOLDS.len());
+    check(&w, "start");
+    for step in 0..4u64 {
+        // A new layout: only the chunks whose neighbourhood changed are rebuilt.
+        let stale = w.set_layout(random_layout(10 + step)).unwrap();
+        assert!(!stale.is_empty() && stale.len() < w.chunks().len() * 2);
+        assert_eq!(w.build_stale(&field).unwrap(), stale);
+        assert!(w.stale().is_empty());
+        randomise(&mut w, &mut rng, THRESHOLDS.len());
+        check(&w, &format!("layout {step}"));
+        // An edit: rebuild the chunks whose box, grown by two of their cells (the
+        // samples a finer chunk conforms to), meets the brush.
+        let centre = Vec3::new(0.55 * (step as f32).cos(), 0.1, 0.55 * (step as f32).sin());
+        let op = if step % 2 == 0 {
+            BrushOp::Add
+        } else {
+            BrushOp::Subtract
+        };
+        field = field.with_edit(Brush::sphere(centre, 0.2, op)).unwrap();
+        let touched = w.chunks_near_edit(centre, 0.2);
+        assert!(!touched.is_empty() && touched.len() < w.chunks().len());
+        w.build(&touched, &field).unwrap();
+        let m = check(&w, &format!("edit {step}"));
+        // The same as a world built from scratch.
+        let mut fresh = level_world(&field, w.layout().clone(), Settings::default());
+        for k in w.chunks() {
+            fresh.set_threshold(&k, w.threshold(&k));
+        }
+        assert_eq!(fresh.extract_all(), m, "step {step}: incremental differs");
+    }
+}
+
+#[test]
+fn one_thread_and_many_give_the_same_mesh() {
+    let scene = scenes::scene("csg_mix").unwrap();
+    let one = level_world(
+        &*scene.field,
+        random_layout(5),
+        Settings {
+            threads: 1,
+            ..Default::default()
+        },
+    );
+    let many = level_world(&*scene.field, random_layout(5), Settings::default());
+    assert_eq!(one.extract_all(), many.extract_all());
+}
+
+#[test]
+fn coarse_chunks_keep_their_error_bound_in_their_own_cells() {
+    // As tests/geometry.rs for one grid: sqrt(threshold) + 0.1 cells, here in the
+    // cells of each chunk's level, for every chunk no coarser chunk touches (the
+    // coarsest level, and finer chunks away from coarser ones). A chunk next to a
+    // coarser one follows the coarse contour on their shared boundary (a fine
+    // crossing can sit in the other half of its coarse edge), so its vertices
+    // there may be off by up to a cell diagonal more (measured: 1.16 cells more).
+    let (lo, hi) = region();
+    for name in ["sphere", "torus"] {
+        let scene = scenes::scene(name).unwrap();
+        let probe = level_world(
+            &*scene.field,
+            Layout::uniform(lo, hi, 2).unwrap(),
+            Settings::default(),
+        );
+        let camera = probe.to_chunk_units(Vec3::new(-0.9, 0.8, 0.95));
+        let mut seen = [0usize; 3];
+        let mut worst = [0f32; 2];
+        let mut m = IndexedMesh::default();
+        for layout in [
+            random_layout(1),
+            Layout::around(lo, hi, 2, camera, 1.0).unwrap(),
+        ] {
+            let mut w = level_world(&*scene.field, layout, Settings::default());
+            for e in [-1.0f32, 0.001, 0.01, 0.1, 1.0] {
+                for k in w.chunks() {
+                    w.set_threshold(&k, e);
+                    w.extract_interior(&k, &mut m);
+                    if m.triangle_count() == 0 {
+                        continue;
+                    }
+                    let cell = w.chunk_grid(&k).cell_size;
+                    let r = validate(&m, Some((&*scene.field, cell)));
+                    let bound = e.max(0.0).sqrt() + 0.1;
+                    let near_coarser = !w.chunk_build(&k).neighbourhood.coarser.is_empty();
+                    let slack = if near_coarser { 3f32.sqrt() } else { 0.0 };
+                    if !near_coarser {
+                        seen[k.level as usize] += 1;
+                    }
+                    let w = &mut worst[near_coarser as usize];
+                    *w = w.max(r.max_vertex_error - bound);
+                    assert!(
+                        r.max_vertex_error <= bound + slack,
+                        "{name} {k:?} e {e}: vertex error {} > {bound} + {slack} cells",
+                        r.max_vertex_error
+                    );
+                }
+            }
+        }
+        println!("{name}: chunks checked per level {seen:?}, worst excess {worst:?} cells");
+        assert!(
+            seen[1] > 0 && seen[2] > 0,
+            "{name}: no coarse chunk holds surface: {seen:?}"
+        );
+    }
+}
+
+#[test]
+fn layouts_are_checked_for_cover_and_balance() {
+    for seed in 0..8 {
+        let l = random_layout(seed);
+        l.check().unwrap();
+        // Every level-0 chunk is held by exactly one chunk.
+        for z in 0..8 {
+            for x in 0..8 {
+                let c = IVec3::new(x, 3, z);
+                let k = l.chunk_at(c).unwrap();
+                assert!(k.lo().cmple(c).all() && k.hi().cmpgt(c).all());
+            }
+        }
+    }
+    let (lo, hi) = (IVec3::ZERO, IVec3::splat(8));
+    let top = |x, y, z| ChunkKey::new(2, IVec3::new(x, y, z));
+    let all_top: Vec<ChunkKey> = (0..8).map(|i| top(i & 1, (i >> 1) & 1, i >> 2)).collect();
+    assert!(Layout::new(lo, hi, all_top.clone()).is_ok());
+    // A gap.
+    let e = Layout::new(lo, hi, all_top[1..].to_vec())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("cover"), "{e}");
+    // An overlap.
+    let mut over = all_top.clone();
+    over.push(ChunkKey::new(1, IVec3::ZERO));
+    let e = Layout::new(lo, hi, over).unwrap_err().to_string();
+    assert!(e.contains("overlaps"), "{e}");
+    // Level 0 next to level 2: split one level-2 chunk down to level 0 in a corner.
+    let mut unbalanced: Vec<ChunkKey> = all_top[1..].to_vec();
+    let first = all_top[0];
+    for c in first.children() {
+        if c.coord == IVec3::ONE {
+            unbalanced.extend(c.children());
+        } else {
+            unbalanced.push(c);
+        }
+    }
+    let e = Layout::new(lo, hi, unbalanced).unwrap_err().to_string();
+    assert!(e.contains("balanced"), "{e}");
+    // Outside the region, off the grid.
+    let e = Layout::new(lo, hi, [ChunkKey::new(3, IVec3::ONE)])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("outside"), "{e}");
+    assert!(Layout::uniform(lo, IVec3::splat(6), 2).is_err());
+    // Camera rings: finest at the camera, coarsest far away.
+    let l = Layout::around(lo, hi, 2, Vec3::splat(0.5), 1.0).unwrap();
+    assert_eq!(l.chunk_at(IVec3::ZERO).unwrap().level, 0);
+    assert_eq!(l.chunk_at(IVec3::splat(7)).unwrap().level, 2);
+    // Bad worlds.
+    let s = Settings::default();
+    assert!(LevelWorld::new(Vec3::ZERO, 0.1, 7, l.clone(), 0.01, s.clone()).is_err());
+    assert!(LevelWorld::new(Vec3::ZERO, 0.1, 8, l, f32::NAN, s).is_err());
+}
+
+#[test]
+fn seams_belong_to_their_finest_chunk() {
+    let scene = scenes::scene("sphere").unwrap();
+    let w = level_world(&*scene.field, random_layout(2), Settings::default());
+    for k in w.chunks() {
+        for s in w.seams_of(&k) {
+            let owner = s.owner();
+            assert!(s.chunks().iter().all(|c| c.level >= owner.level), "{s:?}");
+            assert!(w.seam_owners_touching(&k).contains(&owner));
+            if let Seam::Face { low, high, axis } = s {
+                assert_eq!(low.hi()[axis], high.lo()[axis], "{s:?}");
+            }
+        }
+    }
+}
