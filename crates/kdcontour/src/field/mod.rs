@@ -75,50 +75,27 @@ pub fn central_difference(f: impl Fn(Vec3) -> f32, p: Vec3, h: f32) -> Vec3 {
     Vec3::new(dx, dy, dz) / (2.0 * h)
 }
 
-impl<F: Field + ?Sized> Field for &F {
-    fn value(&self, p: Vec3) -> f32 {
-        (**self).value(p)
-    }
-    fn gradient(&self, p: Vec3) -> Vec3 {
-        (**self).gradient(p)
-    }
-    fn sample_grid(&self, grid: &Grid, z_range: std::ops::Range<u32>, out: &mut [f32]) {
-        (**self).sample_grid(grid, z_range, out)
-    }
-    fn lipschitz(&self) -> Option<f32> {
-        (**self).lipschitz()
-    }
+/// A reference or smart pointer to a field is the field: every method forwards.
+macro_rules! forward_field {
+    ($($ptr:ty),*) => {$(
+        impl<F: Field + ?Sized> Field for $ptr {
+            fn value(&self, p: Vec3) -> f32 {
+                (**self).value(p)
+            }
+            fn gradient(&self, p: Vec3) -> Vec3 {
+                (**self).gradient(p)
+            }
+            fn sample_grid(&self, grid: &Grid, z_range: std::ops::Range<u32>, out: &mut [f32]) {
+                (**self).sample_grid(grid, z_range, out)
+            }
+            fn lipschitz(&self) -> Option<f32> {
+                (**self).lipschitz()
+            }
+        }
+    )*};
 }
 
-impl<F: Field + ?Sized> Field for Box<F> {
-    fn value(&self, p: Vec3) -> f32 {
-        (**self).value(p)
-    }
-    fn gradient(&self, p: Vec3) -> Vec3 {
-        (**self).gradient(p)
-    }
-    fn sample_grid(&self, grid: &Grid, z_range: std::ops::Range<u32>, out: &mut [f32]) {
-        (**self).sample_grid(grid, z_range, out)
-    }
-    fn lipschitz(&self) -> Option<f32> {
-        (**self).lipschitz()
-    }
-}
-
-impl<F: Field + ?Sized> Field for std::sync::Arc<F> {
-    fn value(&self, p: Vec3) -> f32 {
-        (**self).value(p)
-    }
-    fn gradient(&self, p: Vec3) -> Vec3 {
-        (**self).gradient(p)
-    }
-    fn sample_grid(&self, grid: &Grid, z_range: std::ops::Range<u32>, out: &mut [f32]) {
-        (**self).sample_grid(grid, z_range, out)
-    }
-    fn lipschitz(&self) -> Option<f32> {
-        (**self).lipschitz()
-    }
-}
+forward_field!(&F, Box<F>, std::sync::Arc<F>);
 
 /// `inner - iso`: moves the surface to the `iso` level set of `inner` (an iso-value
 /// slider over a scan, or growing and shrinking a shape).
