@@ -26,10 +26,12 @@
 pub mod conform;
 pub mod layout;
 pub mod levels;
+mod lod;
 
 pub use conform::{LevelBuild, Neighbourhood};
 pub use layout::{ChunkKey, Layout};
 pub use levels::{LevelSnapshot, LevelWorld, Seam};
+pub use lod::Lod;
 
 use crate::error::{Error, Result};
 use crate::field::Field;
@@ -578,73 +580,4 @@ fn build_chunk_tree(
             [r + 1, r + 1, r + 1],
         ))
     })?
-}
-
-/// A chunk's threshold from its distance to the camera:
-/// `base * max(1, d / near)^growth`, capped at `max`.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Lod {
-    /// Threshold within `near` of the camera.
-    pub base: f32,
-    /// Distance (world units) up to which chunks stay at `base`.
-    pub near: f32,
-    /// How fast the threshold grows with distance (2: quadratic).
-    pub growth: f32,
-    /// Largest threshold.
-    pub max: f32,
-}
-
-impl Default for Lod {
-    fn default() -> Self {
-        Lod {
-            base: 0.001,
-            near: 0.25,
-            growth: 2.0,
-            max: 10.0,
-        }
-    }
-}
-
-impl Lod {
-    /// The threshold at distance `d`.
-    pub fn threshold(&self, d: f32) -> f32 {
-        (self.base * (d / self.near).max(1.0).powf(self.growth)).min(self.max)
-    }
-
-    /// Checks the curve's values.
-    pub fn check(&self) -> Result<()> {
-        let ok = self.base.is_finite()
-            && self.near.is_finite()
-            && self.near > 0.0
-            && self.growth.is_finite()
-            && self.growth >= 0.0
-            && self.max.is_finite()
-            && self.max >= self.base;
-        if ok {
-            Ok(())
-        } else {
-            Err(Error::InvalidSetting {
-                name: "lod",
-                reason: format!("{self:?}: near must be > 0, growth >= 0, max >= base, all finite"),
-            })
-        }
-    }
-}
-
-impl ChunkWorld {
-    /// Sets every chunk's threshold from its distance to `camera` (the nearest point
-    /// of its box). Returns the chunks whose threshold changed.
-    pub fn apply_lod(&mut self, camera: Vec3, lod: &Lod) -> Vec<IVec3> {
-        let coords = self.coords();
-        let mut changed = Vec::new();
-        for c in coords {
-            let (lo, hi) = self.chunk_bounds(c);
-            let e = lod.threshold(camera.clamp(lo, hi).distance(camera));
-            if e != self.threshold(c) {
-                self.set_threshold(c, e);
-                changed.push(c);
-            }
-        }
-        changed
-    }
 }
