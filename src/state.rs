@@ -1,5 +1,5 @@
 //! The meshing state of one volume ([`VolumeState`], added by the volume
-//! subsystem): its chunk world, its edited field, and one [`ChunkSlot`] per
+//! subsystem): its chunk world, its edited field, and one `ChunkSlot` per
 //! loaded chunk holding everything the plugin tracks for that chunk, so loading
 //! and unloading a chunk is one insert and one remove.
 
