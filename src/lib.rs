@@ -3,9 +3,10 @@
 //! A Bevy 0.19 plugin that meshes signed-distance, CSG and noise fields through the
 //! discrete k-d tree of [`kdcontour`], in chunks: each chunk's tree is built on
 //! Bevy's [`AsyncComputeTaskPool`](bevy::tasks::AsyncComputeTaskPool), kept, and
-//! re-cut at a new error threshold when the [`LodCamera`] moves (no re-sampling); edits ([`ApplyEdit`]) rebuild only the
-//! chunks they reach; seams between chunks at different thresholds are contoured
-//! across the chunk trees, so there are no cracks, skirts or transition cells.
+//! re-cut at a new error threshold when the [`LodCamera`] moves (no re-sampling);
+//! edits ([`ApplyEdit`]) rebuild only the chunks they reach; seams between chunks
+//! at different thresholds are contoured across the chunk trees, so there are no
+//! cracks, skirts or transition cells.
 //!
 //! ```no_run
 //! use bevy::prelude::*;
