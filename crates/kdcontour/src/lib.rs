@@ -45,6 +45,11 @@
 //!   so the Euler characteristic at any threshold equals the uniform one.
 //! - **Sharp features**: vertices minimise the QEF of their crossings, so box corners
 //!   and CSG creases are reproduced; each vertex stays inside its cell or node.
+//! - **Crack-free chunk worlds**: chunks at different thresholds
+//!   ([`ChunkWorld`]) and at different levels, cells doubling per level
+//!   ([`LevelWorld`], 2:1 balanced [`world::Layout`]s), weld into one closed,
+//!   2-manifold, oriented mesh with no skirts, transition cells or overlap: the
+//!   finer side of a level seam conforms to the coarser (see [`world::levels`]).
 //! - **Determinism**: one thread or many give the identical mesh.
 //! - **Bad input is an [`Error`]**: NaN / infinite samples, empty or oversized grids,
 //!   malformed scene files (with line and column).
@@ -54,6 +59,10 @@
 //!   neighbouring triangles cross on strongly curved surfaces.
 //! - Features thinner than a cell are not resolved (the grid decides topology).
 //! - Surfaces that leave the grid are open along the grid's boundary.
+//! - Next to a coarser chunk a finer chunk follows the coarse contour, so its
+//!   vertices there may stand up to about a cell further from the surface than
+//!   its threshold alone allows; away from level seams each chunk keeps its bound
+//!   in its own cells.
 //!
 //! Error thresholds are QEF residuals in squared cells (a sum over the crossings
 //! a vertex stands for), so a threshold means the same at every resolution.
@@ -89,7 +98,7 @@ pub use kdtree::{BuildStats, KdTree};
 pub use mesh::IndexedMesh;
 pub use settings::{Partition, Settings};
 pub use validate::{validate, MeshReport};
-pub use world::{ChunkWorld, Lod};
+pub use world::{ChunkWorld, LevelWorld, Lod};
 
 /// Builds the tree and contours it once at `threshold`.
 pub fn mesh(
