@@ -7,7 +7,7 @@ mod levels;
 use crate::args::{threads, Input};
 use crate::output::print_checks;
 use kdcontour::io::input::{parse_uvec3, parse_vec3};
-use kdcontour::{validate, ChunkWorld, IndexedMesh, Lod};
+use kdcontour::{validate, ChunkWorld, Field, IndexedMesh, Lod, MeshReport};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -101,6 +101,20 @@ fn cell_size(chunks: glam::UVec3, chunk_res: u32) -> f32 {
     2.0 / (chunks.max_element().max(1) * chunk_res.max(1)) as f32
 }
 
+/// Welds the world with `extract`, timed (ms), and checks the mesh against
+/// `field` (errors in cells of `cell`).
+fn weld(
+    extract: impl FnOnce() -> IndexedMesh,
+    field: &dyn Field,
+    cell: f32,
+) -> (IndexedMesh, f64, MeshReport) {
+    let t = Instant::now();
+    let mesh = extract();
+    let ms = t.elapsed().as_secs_f64() * 1e3;
+    let r = validate(&mesh, Some((field, cell)));
+    (mesh, ms, r)
+}
+
 pub fn run(args: World) -> Result<(), String> {
     let thresholds = Thresholds::parse(args.thresholds.as_deref(), args.camera)?;
     if let Some(spec) = &args.levels {
@@ -148,10 +162,7 @@ pub fn run(args: World) -> Result<(), String> {
         }
         Thresholds::Default => unreachable!("checked above"),
     }
-    let t1 = Instant::now();
-    let mesh = world.extract_all();
-    let contour_ms = t1.elapsed().as_secs_f64() * 1e3;
-    let r = validate(&mesh, Some((&*loaded.field, cell)));
+    let (mesh, contour_ms, r) = weld(|| world.extract_all(), &*loaded.field, cell);
     let mut seam_triangles = 0;
     let mut m = IndexedMesh::default();
     for c in world.coords() {

@@ -2,13 +2,13 @@
 //! (a [`LevelWorld`]), welded into one mesh across level seams, with chunk counts,
 //! retained bytes, build time and triangles per level.
 
-use super::{cell_size, random_thresholds, Thresholds, World};
+use super::{cell_size, random_thresholds, weld, Thresholds, World};
 use crate::args::threads;
 use crate::output::print_checks;
 use glam::{IVec3, UVec3, Vec3};
 use kdcontour::io::input::parse_vec3;
 use kdcontour::world::{ChunkKey, Layout, LevelWorld};
-use kdcontour::{validate, IndexedMesh, Lod};
+use kdcontour::{IndexedMesh, Lod};
 use std::time::Instant;
 
 /// Deepest level `--levels` uses ("random balanced levels 0..2").
@@ -149,10 +149,7 @@ pub fn run(args: &World, spec: &str, thresholds: Thresholds) -> Result<(), Strin
         }
         Thresholds::Default => {}
     }
-    let t1 = Instant::now();
-    let mesh = world.extract_all();
-    let contour_ms = t1.elapsed().as_secs_f64() * 1e3;
-    let r = validate(&mesh, Some((&*loaded.field, cell)));
+    let (mesh, contour_ms, r) = weld(|| world.extract_all(), &*loaded.field, cell);
     let mut seam_triangles = 0;
     let mut m = IndexedMesh::default();
     for k in &keys {
@@ -172,7 +169,8 @@ pub fn run(args: &World, spec: &str, thresholds: Thresholds) -> Result<(), Strin
             "{}",
             serde_json::json!({
                 "scene": loaded.name, "chunks": chunks.to_array(), "chunk_res": args.chunk_res,
-                "levels": spec, "top_level": top, "chunk_count": keys.len(), "per_level": stats.iter().map(LevelStats::json).collect::<Vec<_>>(),
+                "levels": spec, "top_level": top, "chunk_count": keys.len(),
+                "per_level": stats.iter().map(LevelStats::json).collect::<Vec<_>>(),
                 "triangles": r.triangles, "vertices": r.vertices, "seam_triangles": seam_triangles,
                 "watertight": r.watertight, "manifold": r.manifold, "oriented": r.oriented,
                 "euler": r.euler, "max_error": r.max_error, "mean_error": r.mean_error,
