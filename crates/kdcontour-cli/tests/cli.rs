@@ -332,3 +332,104 @@ fn world_writes_a_welded_closed_mesh() {
     assert!(err.contains("--camera"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn world_levels_weld_closed_and_report_each_level() {
+    let dir = std::env::temp_dir().join(format!("kdcontour-cli-levels-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("levels.obj");
+    for extra in [
+        ["--levels", "random:1", "--thresholds", "random:3"],
+        [
+            "--levels",
+            "camera:0.3,0.5,-0.6",
+            "--camera",
+            "0.3,0.5,-0.6",
+        ],
+    ] {
+        let mut args = vec![
+            "world",
+            "--scene",
+            "torus",
+            "--chunks",
+            "16,16,16",
+            "--chunk-res",
+            "4",
+            "--out",
+            out.to_str().unwrap(),
+            "--json",
+        ];
+        args.extend(extra);
+        let (code, stdout, err) = kdcontour(&args);
+        assert_eq!(code, 0, "{err}");
+        assert_eq!(stdout.lines().count(), 1, "{stdout}");
+        let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+        assert_eq!(v["watertight"], true, "{v}");
+        assert_eq!(v["manifold"], true, "{v}");
+        assert_eq!(v["oriented"], true, "{v}");
+        assert_eq!(v["euler"], 0, "{v}");
+        assert_eq!(v["levels"], extra[1], "{v}");
+        assert_eq!(v["top_level"], 2, "{v}");
+        // Every level from 0 to 2 holds chunks, and the levels add up.
+        let levels = v["per_level"].as_array().unwrap();
+        assert_eq!(levels.len(), 3, "{v}");
+        let sum = |key: &str| -> u64 { levels.iter().map(|l| l[key].as_u64().unwrap()).sum() };
+        for (i, l) in levels.iter().enumerate() {
+            assert_eq!(l["level"], i as u64, "{v}");
+            assert!(l["chunks"].as_u64().unwrap() > 0, "{v}");
+            assert!(l["build_ms"].as_f64().unwrap() >= 0.0, "{v}");
+        }
+        assert_eq!(sum("chunks"), v["chunk_count"].as_u64().unwrap(), "{v}");
+        assert_eq!(
+            sum("retained_bytes"),
+            v["retained_bytes"].as_u64().unwrap(),
+            "{v}"
+        );
+        assert_eq!(sum("triangles"), v["triangles"].as_u64().unwrap(), "{v}");
+        assert_eq!(
+            v["thresholds"].as_array().unwrap().len() as u64,
+            sum("chunks")
+        );
+        assert!(std::fs::metadata(&out).unwrap().len() > 1000);
+    }
+    // The summary has a line per level (default grid: 16,16,16).
+    let (code, stdout, err) = kdcontour(&[
+        "world",
+        "--scene",
+        "sphere",
+        "--chunk-res",
+        "4",
+        "--levels",
+        "random:0",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    for line in [
+        "level 0 ",
+        "level 1 ",
+        "level 2 ",
+        "watertight true, manifold true",
+    ] {
+        assert!(stdout.contains(line), "{line}: {stdout}");
+    }
+    for (bad, says) in [
+        (vec!["--levels", "sometimes"], "random:SEED or camera:X,Y,Z"),
+        (vec!["--levels", "random:x"], "random:SEED or camera:X,Y,Z"),
+        (vec!["--levels", "camera:1,2"], "three"),
+        (
+            vec!["--levels", "random:1", "--chunks", "3,3,3"],
+            "divisible by 2",
+        ),
+        (
+            vec!["--levels", "random:1", "--chunk-res", "7"],
+            "chunk_res",
+        ),
+    ] {
+        let mut args = vec!["world", "--scene", "torus"];
+        args.extend(bad);
+        let (code, _, err) = kdcontour(&args);
+        assert_eq!(code, 2, "{args:?}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

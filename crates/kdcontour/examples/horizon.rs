@@ -1,0 +1,305 @@
+//! How chunk count, retained memory and build time grow with view distance when
+//! chunk levels double their cells with distance (issue 12, "Speed and memory").
+//!
+//! The field is the terrain demo's (`examples/terrain.rs` of the plugin: seed 7,
+//! amplitude 22, frequency 0.011, 5 octaves, caves of frequency 0.018 and radius
+//! 0.11); cells of 1, chunks of 32 cells. For a view distance `D` the region is
+//! `2 x 1 x 2` chunks of the top level `T`, whose chunks are `D` cells wide
+//! (`32 * 2^T = D`): `D` cells out from the camera along x and z, and a slab one
+//! top chunk (`D` cells) tall with the mean surface (y = 0) in its middle. Levels
+//! come from [`Layout::around`] with the camera 40 cells above the mean surface;
+//! every chunk is cut at one threshold in its own cells. The whole view is built
+//! from scratch on `THREADS` threads and welded. The terrain runs off the region's
+//! sides, so that mesh is open there; to check that it is closed everywhere else,
+//! the view is built a second time with the terrain capped half a cell inside the
+//! region (intersected with a box), and that mesh must be watertight, manifold and
+//! oriented.
+//!
+//! `cargo run --release -p kdcontour --example horizon [-- DISTANCE... [--ring R]]`
+//! (default distances 256 1024 4096 16384, ring 1). A distance stops, and says
+//! so, when its retained trees pass `MAX_BYTES` or its build passes `MAX_SECS`.
+
+use glam::{IVec3, Vec3};
+use kdcontour::field::terrain::{CaveParams, Density, DensityParams};
+use kdcontour::world::{ChunkKey, Layout, LevelWorld};
+use kdcontour::{validate, Field, MeshReport, Settings};
+use std::time::Instant;
+
+/// Cells per chunk side (the terrain demo's default).
+const CHUNK_RES: u32 = 32;
+/// Worker threads for the build.
+const THREADS: usize = 2;
+/// Threshold of every chunk, in squared cells of its own level (the terrain
+/// demo's LOD base).
+const THRESHOLD: f32 = 0.02;
+/// Camera height above the mean surface (cells).
+const CAMERA_HEIGHT: f32 = 40.0;
+/// Stop a distance whose retained trees pass this many bytes.
+const MAX_BYTES: usize = 8 << 30;
+/// Stop a distance whose build passes this many seconds.
+const MAX_SECS: f64 = 300.0;
+/// Chunks built between two checks of the limits.
+const BATCH: usize = 128;
+
+fn terrain() -> Density {
+    Density::new(DensityParams {
+        seed: 7,
+        base: 0.0,
+        amplitude: 22.0,
+        frequency: 0.011,
+        octaves: 5,
+        caves: Some(CaveParams {
+            frequency: 0.018,
+            radius: 0.11,
+        }),
+    })
+}
+
+/// One level's share of a view.
+#[derive(Default)]
+struct Level {
+    chunks: usize,
+    retained: usize,
+    build_s: f64,
+}
+
+/// What building one view cost.
+struct View {
+    top: u32,
+    levels: Vec<Level>,
+    build_s: f64,
+    contour_s: f64,
+    report: MeshReport,
+    /// The region's world box (min, max).
+    region: (Vec3, Vec3),
+}
+
+/// The world for view distance `distance` (cells), laid out around the camera.
+fn layout(distance: u32, ring: f32) -> Result<LevelWorld, String> {
+    if !(distance.is_power_of_two() && distance >= 2 * CHUNK_RES) {
+        return Err(format!(
+            "view distance {distance} must be a power of two, at least {}",
+            2 * CHUNK_RES
+        ));
+    }
+    let top = (distance / CHUNK_RES).trailing_zeros();
+    let side = 1 << top;
+    let (lo, hi) = (IVec3::new(-side, 0, -side), IVec3::new(side, side, side));
+    // Lattice y = 0 at world y = -distance / 2: the mean surface sits mid-slab.
+    let origin = Vec3::new(0.0, -(distance as f32) / 2.0, 0.0);
+    let settings = Settings {
+        threads: THREADS,
+        ..Default::default()
+    };
+    let uniform = Layout::uniform(lo, hi, top).map_err(|e| e.to_string())?;
+    let mut world = LevelWorld::new(origin, 1.0, CHUNK_RES, uniform, THRESHOLD, settings)
+        .map_err(|e| e.to_string())?;
+    let camera = Vec3::new(16.0, CAMERA_HEIGHT, 16.0);
+    let around = Layout::around(lo, hi, top, world.to_chunk_units(camera), ring)
+        .map_err(|e| e.to_string())?;
+    world.set_layout(around).map_err(|e| e.to_string())?;
+    Ok(world)
+}
+
+/// Builds, welds and checks the view at `distance`; `Err` says why it stopped.
+fn view(distance: u32, ring: f32, field: &dyn Field) -> Result<View, String> {
+    let mut world = layout(distance, ring)?;
+    let top = (distance / CHUNK_RES).trailing_zeros();
+    let keys = world.chunks();
+    let mut levels: Vec<Level> = (0..=top).map(|_| Level::default()).collect();
+    let start = Instant::now();
+    for (l, level) in levels.iter_mut().enumerate() {
+        let mine: Vec<ChunkKey> = keys
+            .iter()
+            .filter(|k| k.level == l as u32)
+            .copied()
+            .collect();
+        level.chunks = mine.len();
+        let t = Instant::now();
+        for batch in mine.chunks(BATCH) {
+            world.build(batch, field).map_err(|e| e.to_string())?;
+            let (bytes, secs) = (world.retained_bytes(), start.elapsed().as_secs_f64());
+            if bytes > MAX_BYTES || secs > MAX_SECS {
+                return Err(format!(
+                    "stopped in level {l} after {secs:.0} s with {} MB retained \
+                     ({} of {} chunks built)",
+                    bytes >> 20,
+                    keys.len() - world.stale().len(),
+                    keys.len()
+                ));
+            }
+        }
+        level.build_s = t.elapsed().as_secs_f64();
+        level.retained = mine
+            .iter()
+            .filter_map(|k| world.tree(k))
+            .map(|t| t.retained_bytes())
+            .sum();
+    }
+    let build_s = start.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let mesh = world.extract_all();
+    let contour_s = t.elapsed().as_secs_f64();
+    Ok(View {
+        top,
+        levels,
+        build_s,
+        contour_s,
+        report: validate(&mesh, None),
+        region: region(&world),
+    })
+}
+
+/// The world box of the world's region (min, max).
+fn region(world: &LevelWorld) -> (Vec3, Vec3) {
+    let side = CHUNK_RES as f32 * world.cell_size;
+    let l = world.layout();
+    (
+        world.origin + l.lo().as_vec3() * side,
+        world.origin + l.hi().as_vec3() * side,
+    )
+}
+
+/// A field intersected with a box: outside the box is air, so the surface closes
+/// on the box's faces.
+struct Capped<'a> {
+    field: &'a dyn Field,
+    lo: Vec3,
+    hi: Vec3,
+}
+
+impl Capped<'_> {
+    /// The box's term: the largest distance outside a face (negative inside).
+    fn wall(&self, p: Vec3) -> f32 {
+        (self.lo - p).max(p - self.hi).max_element()
+    }
+}
+
+impl Field for Capped<'_> {
+    fn value(&self, p: Vec3) -> f32 {
+        self.field.value(p).max(self.wall(p))
+    }
+
+    fn gradient(&self, p: Vec3) -> Vec3 {
+        let w = self.wall(p);
+        if self.field.value(p) >= w {
+            return self.field.gradient(p);
+        }
+        let out = (self.lo - p)
+            .to_array()
+            .into_iter()
+            .chain((p - self.hi).to_array());
+        let face = out.enumerate().find(|&(_, d)| d == w).map_or(0, |(i, _)| i);
+        let mut n = Vec3::ZERO;
+        n[face % 3] = if face < 3 { -1.0 } else { 1.0 };
+        n
+    }
+}
+
+fn main() {
+    let mut distances: Vec<u32> = Vec::new();
+    let mut ring = 1.0f32;
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        if a == "--ring" {
+            ring = args
+                .next()
+                .and_then(|s| s.parse().ok())
+                .expect("--ring takes a number");
+        } else {
+            distances.push(a.parse().expect("a view distance in cells"));
+        }
+    }
+    if distances.is_empty() {
+        distances = vec![256, 1024, 4096, 16384];
+    }
+    let field = terrain();
+    print_stage_times(&field);
+    println!(
+        "terrain seed 7, {CHUNK_RES}-cell chunks of 1-cell cells, ring {ring}, threshold \
+         {THRESHOLD} (own cells), {THREADS} threads; limits {} GB, {MAX_SECS} s",
+        MAX_BYTES >> 30
+    );
+    for d in distances {
+        println!("\nview distance {d} cells");
+        let v = match view(d, ring, &field) {
+            Err(e) => {
+                println!("  {e}");
+                continue;
+            }
+            Ok(v) => v,
+        };
+        print_view(&v);
+        let capped = Capped {
+            field: &field,
+            lo: v.region.0 + 0.5,
+            hi: v.region.1 - 0.5,
+        };
+        match view(d, ring, &capped) {
+            Err(e) => println!("  capped: {e}"),
+            Ok(c) => {
+                let r = &c.report;
+                println!(
+                    "  capped at the region: {} triangles, watertight {}, manifold {}, \
+                     oriented {} (build {:.2} s)",
+                    r.triangles, r.watertight, r.manifold, r.oriented, c.build_s
+                );
+            }
+        }
+    }
+}
+
+/// Times sampling against the whole build for one chunk at the camera (level 0)
+/// and one farther out (level 4), on one thread.
+fn print_stage_times(field: &dyn Field) {
+    let world = layout(1024, 1.0).expect("a valid layout");
+    for level in [0, 4] {
+        let Some(k) = world.chunks().into_iter().find(|k| k.level == level) else {
+            continue;
+        };
+        let mut build = world.chunk_build(&k);
+        build.settings.threads = 1;
+        let t = Instant::now();
+        let samples = kdcontour::hermite::sample(field, &build.grid, &build.settings);
+        let sample_ms = t.elapsed().as_secs_f64() * 1e3;
+        let t = Instant::now();
+        let tree = build.run(field).expect("the chunk builds");
+        let build_ms = t.elapsed().as_secs_f64() * 1e3;
+        println!(
+            "one level-{level} chunk on one thread: sampling {} corners {sample_ms:.1} ms of a \
+             {build_ms:.1} ms build, {} KB retained",
+            samples.map_or(0, |v| v.len()),
+            tree.retained_bytes() >> 10
+        );
+    }
+}
+
+fn print_view(v: &View) {
+    let mb = |b: usize| b as f64 / (1 << 20) as f64;
+    for (l, level) in v.levels.iter().enumerate() {
+        println!(
+            "  level {l}: {:>4} chunks of {:>5} cells, {:>7.1} MB, build {:>6.2} s",
+            level.chunks,
+            CHUNK_RES << l,
+            mb(level.retained),
+            level.build_s
+        );
+    }
+    let chunks: usize = v.levels.iter().map(|l| l.chunks).sum();
+    let retained: usize = v.levels.iter().map(|l| l.retained).sum();
+    let r = &v.report;
+    println!(
+        "  total: {chunks} chunks (levels 0 to {}), {:.1} MB retained, build {:.2} s, \
+         weld {:.2} s, {} triangles",
+        v.top,
+        mb(retained),
+        v.build_s,
+        v.contour_s,
+        r.triangles
+    );
+    println!(
+        "  open mesh: {} edges on 3+ triangles, {} misoriented, {} hole edges (the \
+         region's sides), {} vertices with 2+ fans",
+        r.nonmanifold_edges, r.misoriented_edges, r.boundary_edges, r.nonmanifold_vertices
+    );
+}
