@@ -18,7 +18,7 @@ mod common;
 use bevy::input::mouse::AccumulatedMouseScroll;
 use bevy::prelude::*;
 use bevy_kdcontour::kdcontour::field::raycast;
-use bevy_kdcontour::kdcontour::field::terrain::{CaveParams, Density, DensityParams};
+use bevy_kdcontour::kdcontour::field::terrain::{Density, DensityParams};
 use bevy_kdcontour::kdcontour::Field;
 use bevy_kdcontour::panel::KdContourPanel;
 use bevy_kdcontour::prelude::*;
@@ -65,17 +65,7 @@ fn main() {
             args.chunk_res
         ));
     }
-    let field: Arc<dyn Field> = Arc::new(Density::new(DensityParams {
-        seed: args.seed,
-        base: 0.0,
-        amplitude: 22.0,
-        frequency: 0.011,
-        octaves: 5,
-        caves: Some(CaveParams {
-            frequency: 0.018,
-            radius: 0.11,
-        }),
-    }));
+    let field: Arc<dyn Field> = Arc::new(Density::new(DensityParams::demo(args.seed)));
     let scripted = args.shot.screenshot.is_some();
     let mut app = App::new();
     app.insert_resource(ClearColor(Color::srgb(0.62, 0.75, 0.9)));

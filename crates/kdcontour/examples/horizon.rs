@@ -20,7 +20,7 @@
 //! so, when its retained trees pass `MAX_BYTES` or its build passes `MAX_SECS`.
 
 use glam::{IVec3, Vec3};
-use kdcontour::field::terrain::{CaveParams, Density, DensityParams};
+use kdcontour::field::terrain::{Density, DensityParams};
 use kdcontour::world::{ChunkKey, Layout, LevelWorld};
 use kdcontour::{validate, Field, MeshReport, Settings};
 use std::time::Instant;
@@ -42,17 +42,7 @@ const MAX_SECS: f64 = 300.0;
 const BATCH: usize = 128;
 
 fn terrain() -> Density {
-    Density::new(DensityParams {
-        seed: 7,
-        base: 0.0,
-        amplitude: 22.0,
-        frequency: 0.011,
-        octaves: 5,
-        caves: Some(CaveParams {
-            frequency: 0.018,
-            radius: 0.11,
-        }),
-    })
+    Density::new(DensityParams::demo(7))
 }
 
 /// One level's share of a view.

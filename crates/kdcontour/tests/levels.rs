@@ -19,16 +19,8 @@ const THRESHOLDS: [f32; 6] = [-1.0, 0.001, 0.01, 0.1, 1.0, 10.0];
 /// seams, not a level seam), so its thresholds stop at 1.
 const CAVES_THRESHOLDS: usize = 5;
 
-struct Lcg(u64);
-impl Lcg {
-    fn next(&mut self) -> usize {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (self.0 >> 33) as usize
-    }
-}
+mod common;
+use common::Lcg;
 
 fn region() -> (IVec3, IVec3) {
     (IVec3::ZERO, IVec3::splat(REGION))

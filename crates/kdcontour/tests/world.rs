@@ -9,16 +9,8 @@ use kdcontour::{
 
 const LEVELS: [f32; 6] = [-1.0, 0.001, 0.01, 0.1, 1.0, 10.0];
 
-struct Lcg(u64);
-impl Lcg {
-    fn next(&mut self) -> usize {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (self.0 >> 33) as usize
-    }
-}
+mod common;
+use common::Lcg;
 
 fn world(field: &dyn Field, chunks: u32, res: u32) -> ChunkWorld {
     let cell = 2.0 / (chunks * res) as f32;

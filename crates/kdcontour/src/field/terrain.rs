@@ -48,6 +48,24 @@ pub struct DensityParams {
     pub caves: Option<CaveParams>,
 }
 
+impl DensityParams {
+    /// The terrain the main demo streams, at a cell size of 1: hills about 22
+    /// cells high with overhangs and arches, carved by worm-like caves.
+    pub fn demo(seed: u32) -> Self {
+        DensityParams {
+            seed,
+            base: 0.0,
+            amplitude: 22.0,
+            frequency: 0.011,
+            octaves: 5,
+            caves: Some(CaveParams {
+                frequency: 0.018,
+                radius: 0.11,
+            }),
+        }
+    }
+}
+
 /// Tunnels where two independent noises are both near zero.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
