@@ -37,10 +37,20 @@ impl PluginGroup for KdContourPlugins {
             .add(LodPlugin)
             .add(TasksPlugin)
             .add(UploadPlugin);
-        #[cfg(feature = "debug")]
-        let group = group.add(crate::debug::DebugPlugin);
-        group
+        with_debug(group)
     }
+}
+
+/// Adds the debug subsystem (crate feature `debug`).
+#[cfg(feature = "debug")]
+fn with_debug(group: PluginGroupBuilder) -> PluginGroupBuilder {
+    group.add(crate::debug::DebugPlugin)
+}
+
+/// Without the `debug` feature there is no debug subsystem.
+#[cfg(not(feature = "debug"))]
+fn with_debug(group: PluginGroupBuilder) -> PluginGroupBuilder {
+    group
 }
 
 /// The whole of [`KdContourPlugins`] as one plugin, as before the plugin was split
