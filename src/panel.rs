@@ -1,7 +1,7 @@
 //! An egui panel for the plugin (crate feature `egui`): counts, meshing times,
 //! the threshold and the LOD curve, the iso value, wireframe and LOD colouring.
 //!
-//! Add [`KdContourPanelPlugin`] after [`crate::KdContourPlugin`] (it adds
+//! Add [`KdContourPanelPlugin`] after [`crate::KdContourPlugins`] (it adds
 //! `bevy_egui`'s `EguiPlugin` and Bevy's `WireframePlugin` when they are missing).
 //! It edits [`KdContourSettings`], every [`KdVolume`]'s `iso`, and Bevy's
 //! `WireframeConfig`; it reads [`KdContourStats`]. Examples add their own rows
