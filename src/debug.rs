@@ -1,12 +1,13 @@
 //! Debug drawing (crate feature `debug`): [`DebugPlugin`] colours each chunk by
-//! its threshold band when [`KdContourSettings::color_by_lod`] is on, to see the
-//! LOD rings and the seams between them, and gives chunks back their volume's
+//! its threshold band (by its level in a horizon volume: blue finest, red
+//! coarsest) when [`KdContourSettings::color_by_lod`] is on, to see the LOD
+//! rings and the seams between them, and gives chunks back their volume's
 //! material when it is turned off.
 
 use crate::settings::{KdContourSettings, LodSettings};
 use crate::stats::MainThreadClock;
 use crate::upload::apply_meshes;
-use crate::volume::{KdChunk, KdVolume};
+use crate::volume::{KdChunk, KdVolume, VolumeExtent};
 use crate::KdContourSystems;
 use bevy::prelude::*;
 
@@ -83,7 +84,12 @@ fn color_chunks(
             continue;
         }
         let want = if settings.color_by_lod && !palette.is_empty() {
-            palette[lod_band(chunk.threshold, &settings.lod)].clone()
+            // A horizon volume is coloured by chunk level, others by threshold.
+            let band = match volumes.get(chunk.volume).map(|v| &v.extent) {
+                Ok(VolumeExtent::Horizon { .. }) => (chunk.level as usize).min(LOD_BANDS - 1),
+                _ => lod_band(chunk.threshold, &settings.lod),
+            };
+            palette[band].clone()
         } else if let Ok(vol) = volumes.get(chunk.volume) {
             vol.material.clone()
         } else {

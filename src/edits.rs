@@ -9,6 +9,7 @@ use crate::volume::KdVolume;
 use crate::KdContourSystems;
 use bevy::prelude::*;
 use kdcontour::edit::EditedField;
+use kdcontour::world::ChunkKey;
 
 /// Applies [`ApplyEdit`] and [`ReplaceField`] messages.
 pub struct EditsPlugin;
@@ -52,21 +53,15 @@ pub(crate) fn apply_edits(
         vol.field = msg.field.clone();
         let rebuilt = match &msg.regions {
             Some(regions) => {
-                let mut all: Vec<IVec3> = Vec::new();
+                let mut all: Vec<ChunkKey> = Vec::new();
                 for &(centre, radius) in regions {
                     all.extend(state.rebuild_near(centre, radius));
                 }
-                all.sort_by_key(|c| (c.z, c.y, c.x));
+                all.sort_by_key(|c| c.order());
                 all.dedup();
                 all
             }
-            None => {
-                let all = state.world().coords();
-                for &c in &all {
-                    state.mark_build(c);
-                }
-                all
-            }
+            None => state.rebuild_all(),
         };
         applied.write(EditApplied {
             volume: msg.volume,

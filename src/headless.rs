@@ -24,24 +24,32 @@ impl PluginGroup for HeadlessPlugins {
 }
 
 /// Updates `app` until `volume` has no meshing work queued, running or waiting
-/// for upload, then once more so the last uploads' commands apply; at most
-/// `max_frames` updates, sleeping `pause` between them (tasks run on other
-/// threads). Returns whether it settled.
+/// for upload, and is still settled after one more update (so the last
+/// uploads' commands have applied and that update started nothing new, such as
+/// a horizon volume's next level change); at most `max_frames` updates,
+/// sleeping `pause` between them (tasks run on other threads). Returns whether
+/// it settled.
 pub fn run_until_settled(
     app: &mut App,
     volume: Entity,
     max_frames: usize,
     pause: std::time::Duration,
 ) -> bool {
-    for _ in 0..max_frames {
-        app.update();
-        if app
-            .world()
+    let settled = |app: &App| {
+        app.world()
             .get::<VolumeState>(volume)
             .is_some_and(|s| s.is_settled())
-        {
+    };
+    let mut frames = 0;
+    while frames < max_frames {
+        app.update();
+        frames += 1;
+        if settled(app) {
             app.update();
-            return true;
+            frames += 1;
+            if settled(app) {
+                return true;
+            }
         }
         if !pause.is_zero() {
             std::thread::sleep(pause);

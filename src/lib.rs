@@ -41,12 +41,13 @@
 //! | [`stats`] | [`StatsPlugin`] | [`KdContourStats`]; the main-thread clock |
 //! | [`volume`] | [`VolumePlugin`] | [`KdVolume`], [`KdChunk`]; a [`VolumeState`] per volume; the system sets |
 //! | [`edits`] | [`EditsPlugin`] | [`ApplyEdit`], [`ReplaceField`] |
-//! | [`streaming`] | [`StreamingPlugin`] | loads and drops chunks around the camera |
+//! | [`streaming`] | [`StreamingPlugin`] | loads and drops chunks around the camera; lays horizon volumes out in chunk levels ([`horizon`]) |
 //! | [`lod`] | [`LodPlugin`] | thresholds from the camera |
 //! | [`tasks`] | [`TasksPlugin`] | builds and extractions on the task pool |
 //! | [`upload`] | [`UploadPlugin`] | meshes onto the chunk entities |
 //! | `debug` (feature `debug`) | `DebugPlugin` | colours chunks by LOD band |
 //!
+//! [`chunks`] is the chunk world behind a volume (one level, or levels);
 //! [`headless`] runs it with no renderer; `panel` (feature `egui`) is the egui
 //! panel the examples show.
 //!
@@ -58,7 +59,9 @@
 //! with `check_ready`; results from an older field or threshold are dropped) →
 //! `Apply` (upload at most [`KdContourSettings::max_uploads_per_frame`] meshes) →
 //! `Stats`. `Lod` also streams the chunks of unbounded volumes
-//! ([`KdVolume::streaming`]) in and out around the camera, nearest first.
+//! ([`KdVolume::streaming`]) in and out around the camera, nearest first, and
+//! lays horizon volumes ([`KdVolume::horizon`]) out in chunk levels whose cells
+//! double with distance; `Apply` shows a level change in one frame.
 //!
 //! Each chunk mesh holds the chunk's interior and the seams it owns (see
 //! [`kdcontour::world`] for the ownership rule), in the volume's local space.
@@ -67,10 +70,12 @@ use bevy::prelude::*;
 
 pub use kdcontour;
 
+pub mod chunks;
 #[cfg(feature = "debug")]
 pub mod debug;
 pub mod edits;
 pub mod headless;
+pub mod horizon;
 pub mod lod;
 pub mod messages;
 #[cfg(feature = "egui")]
@@ -84,6 +89,7 @@ pub mod tasks;
 pub mod upload;
 pub mod volume;
 
+pub use chunks::VolumeWorld;
 #[cfg(feature = "debug")]
 pub use debug::DebugPlugin;
 pub use edits::EditsPlugin;
@@ -110,6 +116,7 @@ pub mod prelude {
         LodChanged, LodSettings, ReplaceField, SharedField, VolumeExtent, VolumeState,
     };
     pub use kdcontour::edit::{Brush, BrushOp};
+    pub use kdcontour::world::ChunkKey;
 }
 
 /// The plugin's systems, in the order they run (chained, in [`PostUpdate`], before

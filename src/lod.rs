@@ -45,23 +45,31 @@ pub(crate) fn update_lod(
     let curve = lod.curve();
     for (entity, vol_tf, mut state) in &mut volumes {
         let local = cam.map(|c| vol_tf.affine().inverse().transform_point3(c));
-        for c in state.world().coords() {
+        // A chunk whose new threshold would re-extract a chunk held for a level
+        // change keeps its threshold until the change ends, so the change is
+        // never starved by re-extractions.
+        let mut keys: Vec<_> = state.slots.keys().copied().collect();
+        keys.sort_by_key(|k| k.order());
+        for c in keys {
+            // A chunk's threshold is in squared cells of its own level: it follows
+            // the curve at its distance in those cells.
             let want = match local {
-                Some(p) => curve.threshold(state.distance(p, c)),
+                Some(p) => curve.threshold(state.distance(p, &c) / (1u32 << c.level) as f32),
                 None => settings.default_threshold,
             };
-            let have = state.world().threshold(c);
+            let have = state.world().threshold(&c);
             let differs = if local.is_some() && have > 0.0 && want > 0.0 {
                 (want / have).ln().abs() > (1.0 + lod.hysteresis).ln()
             } else {
                 want != have
             };
-            if differs {
-                state.world_mut().set_threshold(c, want);
-                state.mark_extract(c);
+            if differs && !state.shows_held(&c) {
+                state.world_mut().set_threshold(&c, want);
+                state.mark_extract(&c);
                 changed.write(LodChanged {
                     volume: entity,
-                    coord: c,
+                    coord: c.coord,
+                    level: c.level,
                     threshold: want,
                 });
             }

@@ -6,6 +6,7 @@
 use crate::volume::SharedField;
 use bevy::prelude::*;
 use kdcontour::edit::Brush;
+use kdcontour::world::ChunkKey;
 
 /// Apply a brush to a volume.
 #[derive(Message, Clone, Debug)]
@@ -36,8 +37,9 @@ pub struct ReplaceField {
 pub struct EditApplied {
     /// The volume entity.
     pub volume: Entity,
-    /// Chunks whose box (grown by a cell) the brush reaches.
-    pub rebuilt: Vec<IVec3>,
+    /// Chunks whose samples the brush reaches, at every level that covers it
+    /// (level 0 in a one-level volume).
+    pub rebuilt: Vec<ChunkKey>,
 }
 
 /// A chunk now shows a new mesh.
@@ -47,8 +49,10 @@ pub struct ChunkMeshed {
     pub volume: Entity,
     /// The chunk entity.
     pub chunk: Entity,
-    /// Its coordinates.
+    /// Its coordinates (in chunks of its level).
     pub coord: IVec3,
+    /// Its level (0 in a one-level volume).
+    pub level: u32,
     /// Triangles in the mesh (0: the chunk is empty).
     pub triangles: usize,
 }
@@ -58,8 +62,10 @@ pub struct ChunkMeshed {
 pub struct LodChanged {
     /// The volume entity.
     pub volume: Entity,
-    /// The chunk.
+    /// The chunk (in chunks of its level).
     pub coord: IVec3,
+    /// Its level (0 in a one-level volume).
+    pub level: u32,
     /// Its new threshold.
     pub threshold: f32,
 }
@@ -69,8 +75,10 @@ pub struct LodChanged {
 pub struct ChunkFailed {
     /// The volume entity.
     pub volume: Entity,
-    /// The chunk.
+    /// The chunk (in chunks of its level).
     pub coord: IVec3,
+    /// Its level (0 in a one-level volume).
+    pub level: u32,
     /// What went wrong.
     pub error: String,
 }

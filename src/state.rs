@@ -1,14 +1,17 @@
 //! The meshing state of one volume ([`VolumeState`], added by the volume
 //! subsystem): its chunk world, its edited field, and one `ChunkSlot` per
 //! loaded chunk holding everything the plugin tracks for that chunk, so loading
-//! and unloading a chunk is one insert and one remove.
+//! and unloading a chunk is one insert and one remove. Chunks are addressed by
+//! [`ChunkKey`] (level 0 in a one-level world).
 
+use crate::chunks::VolumeWorld;
 use crate::tasks::{BuildOut, ExtractOut};
 use crate::volume::{ChunkStatus, KdChunk};
 use bevy::prelude::*;
 use bevy::tasks::Task;
 use kdcontour::edit::{Brush, EditedField};
-use kdcontour::{ChunkWorld, Field, IndexedMesh};
+use kdcontour::world::ChunkKey;
+use kdcontour::{Field, IndexedMesh};
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -31,6 +34,11 @@ pub(crate) struct ChunkSlot {
     pub extracting: Option<Task<ExtractOut>>,
     /// A finished extraction waiting for upload: its threshold and mesh.
     pub ready: Option<(f32, IndexedMesh)>,
+    /// Its mesh waits for the rest of a level change, to be shown in the same
+    /// frame as the chunks it replaces are dropped (see [`crate::horizon`]).
+    pub held: bool,
+    /// It has shown a mesh (or its lack of surface) at least once.
+    pub shown: bool,
 }
 
 impl ChunkSlot {
@@ -53,24 +61,37 @@ pub struct WorkCounts {
     pub queued: usize,
 }
 
+/// A level change in progress (see [`crate::horizon`]).
+pub(crate) struct Transition {
+    /// The chunks whose new meshes it waits for.
+    pub waiting: Vec<ChunkKey>,
+    /// Their meshes are held back and shown together (false for a first load,
+    /// which replaces nothing).
+    pub hold: bool,
+    /// The dropped chunks, still shown until the change is complete.
+    pub retired: Vec<(ChunkKey, Entity)>,
+}
+
 /// The meshing state of one volume (added by the plugin).
 #[derive(Component)]
 pub struct VolumeState {
-    world: ChunkWorld,
+    world: VolumeWorld,
     field: EditedField,
     /// The volume's field and iso the edits are layered on.
     pub(crate) base: (Arc<dyn Field>, f32),
     /// One slot per loaded chunk.
-    pub(crate) slots: HashMap<IVec3, ChunkSlot>,
+    pub(crate) slots: HashMap<ChunkKey, ChunkSlot>,
     /// The camera in the volume's local space: work is scheduled nearest first.
     pub(crate) focus: Vec3,
     /// The camera chunk and settings streaming last ran for.
-    pub(crate) stream_key: Option<(IVec3, u32, i32, i32)>,
+    pub(crate) stream_key: Option<(IVec3, u64, i32, i32)>,
+    /// The level change in progress, if any.
+    pub(crate) transition: Option<Transition>,
 }
 
 impl VolumeState {
     /// A state with no chunk loaded.
-    pub(crate) fn new(world: ChunkWorld, field: EditedField, base: (Arc<dyn Field>, f32)) -> Self {
+    pub(crate) fn new(world: VolumeWorld, field: EditedField, base: (Arc<dyn Field>, f32)) -> Self {
         VolumeState {
             world,
             field,
@@ -78,16 +99,17 @@ impl VolumeState {
             slots: HashMap::new(),
             focus: Vec3::ZERO,
             stream_key: None,
+            transition: None,
         }
     }
 
     /// The chunk world (trees and thresholds).
-    pub fn world(&self) -> &ChunkWorld {
+    pub fn world(&self) -> &VolumeWorld {
         &self.world
     }
 
     /// The chunk world, to change.
-    pub(crate) fn world_mut(&mut self) -> &mut ChunkWorld {
+    pub(crate) fn world_mut(&mut self) -> &mut VolumeWorld {
         &mut self.world
     }
 
@@ -106,9 +128,34 @@ impl VolumeState {
         self.field.log()
     }
 
-    /// No work queued, running or waiting for upload.
+    /// No work queued, running or waiting for upload, and no level change in
+    /// progress.
     pub fn is_settled(&self) -> bool {
-        self.slots.values().all(ChunkSlot::is_settled)
+        self.transition.is_none() && self.slots.values().all(ChunkSlot::is_settled)
+    }
+
+    /// Whether a level change (a horizon volume's new layout) is waiting for
+    /// its meshes; the chunks it replaces are shown until it ends.
+    pub fn level_change_in_progress(&self) -> bool {
+        self.transition.is_some()
+    }
+
+    /// The chunks that show something now, with their entities: every loaded
+    /// chunk that has shown a mesh (or its lack of surface), and the chunks a
+    /// level change in progress is replacing. Together they cover the loaded
+    /// region once when the volume has finished its first load.
+    pub fn shown_chunks(&self) -> Vec<(ChunkKey, Entity)> {
+        let mut v: Vec<(ChunkKey, Entity)> = self
+            .slots
+            .iter()
+            .filter(|(_, s)| s.shown)
+            .map(|(k, s)| (*k, s.entity))
+            .collect();
+        if let Some(t) = &self.transition {
+            v.extend(t.retired.iter().copied());
+        }
+        v.sort_by_key(|(k, _)| k.order());
+        v
     }
 
     /// Tasks running and waiting.
@@ -122,13 +169,13 @@ impl VolumeState {
     }
 
     /// The entity of chunk `c`.
-    pub fn chunk_entity(&self, c: IVec3) -> Option<Entity> {
-        self.slots.get(&c).map(|s| s.entity)
+    pub fn chunk_entity(&self, c: &ChunkKey) -> Option<Entity> {
+        self.slots.get(c).map(|s| s.entity)
     }
 
     /// Queues a new extraction of every loaded chunk whose mesh shows part of
-    /// `c`: `c` and the lower neighbours that own seams touching it.
-    pub(crate) fn mark_extract(&mut self, c: IVec3) {
+    /// `c`: `c` and the neighbours that own seams touching it.
+    pub(crate) fn mark_extract(&mut self, c: &ChunkKey) {
         for o in self.world.seam_owners_touching(c) {
             if let Some(slot) = self.slots.get_mut(&o) {
                 slot.extract_stamp += 1;
@@ -137,15 +184,26 @@ impl VolumeState {
         }
     }
 
+    /// Whether a chunk whose mesh shows part of `c` is held for a level change.
+    pub(crate) fn shows_held(&self, c: &ChunkKey) -> bool {
+        self.transition.is_some()
+            && self
+                .world
+                .seam_owners_touching(c)
+                .iter()
+                .any(|o| self.slots.get(o).is_some_and(|s| s.held))
+    }
+
     /// Queues a new build of chunk `c`.
-    pub(crate) fn mark_build(&mut self, c: IVec3) {
-        if let Some(slot) = self.slots.get_mut(&c) {
+    pub(crate) fn mark_build(&mut self, c: &ChunkKey) {
+        if let Some(slot) = self.slots.get_mut(c) {
             slot.build_gen += 1;
             slot.need_build = true;
         }
     }
 
-    /// Makes `c` a member chunk with an entity, queued for its first build.
+    /// Makes `c` a member chunk of a one-level world with an entity, queued for
+    /// its first build.
     pub(crate) fn load(
         &mut self,
         commands: &mut Commands,
@@ -153,7 +211,10 @@ impl VolumeState {
         c: IVec3,
         threshold: f32,
     ) {
-        match self.world.add_chunk(c) {
+        let Some(world) = self.world.flat_mut() else {
+            return;
+        };
+        match world.add_chunk(c) {
             Ok(true) => {}
             Ok(false) => return,
             Err(e) => {
@@ -161,11 +222,24 @@ impl VolumeState {
                 return;
             }
         }
+        self.add_slot(commands, volume, crate::chunks::flat_key(c), threshold);
+    }
+
+    /// Gives chunk `k` (already in the world) an entity and a slot, queued for
+    /// its first build.
+    pub(crate) fn add_slot(
+        &mut self,
+        commands: &mut Commands,
+        volume: Entity,
+        c: ChunkKey,
+        threshold: f32,
+    ) {
         let entity = commands
             .spawn((
                 KdChunk {
                     volume,
-                    coord: c,
+                    coord: c.coord,
+                    level: c.level,
                     threshold,
                     triangles: 0,
                     status: ChunkStatus::Pending,
@@ -186,20 +260,27 @@ impl VolumeState {
                 building: None,
                 extracting: None,
                 ready: None,
+                held: false,
+                shown: false,
             },
         );
-        self.mark_build(c);
+        self.mark_build(&c);
     }
 
-    /// Drops chunk `c`: its tree, its tasks (dropping a task cancels it), its
-    /// entity; the seams its lower neighbours own are re-extracted without it.
+    /// Drops chunk `c` of a one-level world: its tree, its tasks (dropping a
+    /// task cancels it), its entity; the seams its lower neighbours own are
+    /// re-extracted without it.
     pub(crate) fn unload(&mut self, commands: &mut Commands, c: IVec3) {
-        let owners = self.world.seam_owners_touching(c);
-        self.world.remove_chunk(c);
-        if let Some(slot) = self.slots.remove(&c) {
+        let k = crate::chunks::flat_key(c);
+        let owners = self.world.seam_owners_touching(&k);
+        let Some(world) = self.world.flat_mut() else {
+            return;
+        };
+        world.remove_chunk(c);
+        if let Some(slot) = self.slots.remove(&k) {
             commands.entity(slot.entity).despawn();
         }
-        for o in owners.into_iter().filter(|&o| o != c) {
+        for o in owners.into_iter().filter(|&o| o != k) {
             if let Some(slot) = self.slots.get_mut(&o) {
                 slot.extract_stamp += 1;
                 slot.need_extract = true;
@@ -207,33 +288,41 @@ impl VolumeState {
         }
     }
 
-    /// Marks every chunk whose samples (its box grown by the one-cell halo) come
-    /// within `reach` of `centre`; returns them.
-    pub(crate) fn rebuild_near(&mut self, centre: Vec3, reach: f32) -> Vec<IVec3> {
-        let grow = self.world.cell_size;
+    /// Marks every loaded chunk whose samples an edit within `reach` of
+    /// `centre` changes (at every level that covers it); returns them.
+    pub(crate) fn rebuild_near(&mut self, centre: Vec3, reach: f32) -> Vec<ChunkKey> {
         let mut rebuilt = Vec::new();
-        for c in self.world.coords() {
-            let (lo, hi) = self.world.chunk_bounds(c);
-            if centre.clamp(lo - grow, hi + grow).distance(centre) <= reach {
-                self.mark_build(c);
+        for c in self.world.chunks_near_edit(centre, reach) {
+            if self.slots.contains_key(&c) {
+                self.mark_build(&c);
                 rebuilt.push(c);
             }
         }
         rebuilt
     }
 
+    /// Marks every loaded chunk for a rebuild; returns them.
+    pub(crate) fn rebuild_all(&mut self) -> Vec<ChunkKey> {
+        let mut all: Vec<ChunkKey> = self.slots.keys().copied().collect();
+        all.sort_by_key(|c| c.order());
+        for c in &all {
+            self.mark_build(c);
+        }
+        all
+    }
+
     /// Distance from `p` to chunk `c`'s box.
-    pub(crate) fn distance(&self, p: Vec3, c: IVec3) -> f32 {
+    pub(crate) fn distance(&self, p: Vec3, c: &ChunkKey) -> f32 {
         let (lo, hi) = self.world.chunk_bounds(c);
         p.clamp(lo, hi).distance(p)
     }
 
-    /// Sorts chunks nearest the focus first (ties in z, y, x order).
-    pub(crate) fn nearest_first(&self, v: &mut [IVec3]) {
+    /// Sorts chunks nearest the focus first (ties in the world's order).
+    pub(crate) fn nearest_first(&self, v: &mut [ChunkKey]) {
         v.sort_by(|a, b| {
-            self.distance(self.focus, *a)
-                .total_cmp(&self.distance(self.focus, *b))
-                .then((a.z, a.y, a.x).cmp(&(b.z, b.y, b.x)))
+            self.distance(self.focus, a)
+                .total_cmp(&self.distance(self.focus, b))
+                .then(a.order().cmp(&b.order()))
         });
     }
 }

@@ -1,7 +1,9 @@
 //! Streaming: [`StreamingPlugin`] loads the chunks of unbounded volumes
 //! ([`crate::KdVolume::streaming`]) around the [`LodCamera`], nearest first, and
-//! drops those left behind; for every volume it also points scheduling at the
-//! camera (in [`KdContourSystems::Lod`], before thresholds are set).
+//! drops those left behind; lays horizon volumes ([`crate::KdVolume::horizon`])
+//! out in chunk levels around the camera ([`crate::horizon`]); and for every
+//! volume points scheduling at the camera (in [`KdContourSystems::Lod`], before
+//! thresholds are set).
 
 use crate::lod::update_lod;
 use crate::settings::KdContourSettings;
@@ -45,33 +47,54 @@ fn stream_chunks(
             .map(|c| vol_tf.affine().inverse().transform_point3(c))
             .unwrap_or(Vec3::ZERO);
         state.focus = local;
-        let VolumeExtent::Streaming {
-            view_distance,
-            min_y,
-            max_y,
-        } = vol.extent
-        else {
+        let (view_distance, min_y, max_y) = match vol.extent {
+            VolumeExtent::Streaming {
+                view_distance,
+                min_y,
+                max_y,
+            } => (view_distance, min_y, max_y),
+            VolumeExtent::Horizon {
+                view_cells,
+                level0_cells,
+                min_y,
+                max_y,
+            } => {
+                crate::horizon::stream(
+                    &mut commands,
+                    entity,
+                    state,
+                    local,
+                    (view_cells, level0_cells),
+                    (min_y, max_y),
+                    settings.default_threshold,
+                );
+                continue;
+            }
+            VolumeExtent::Bounded { .. } => continue,
+        };
+        let Some(world) = state.world().flat() else {
             continue;
         };
         let key = (
-            state.world().chunk_at(local),
-            view_distance.to_bits(),
+            world.chunk_at(local),
+            view_distance.to_bits() as u64,
             min_y,
             max_y,
         );
         if state.stream_key == Some(key) {
             continue; // the camera is in the same chunk as last time
         }
+        let side = world.chunk_res as f32 * world.cell_size;
+        let near = world.chunks_near(local, view_distance);
         state.stream_key = Some(key);
-        let side = state.world().chunk_res as f32 * state.world().cell_size;
         let rows = min_y..=max_y;
         // Drop what is out of range (with one chunk side of slack) first.
-        for c in state.world().coords() {
-            if !rows.contains(&c.y) || state.distance(local, c) > view_distance + side {
-                state.unload(&mut commands, c);
+        for k in state.world().chunks() {
+            if !rows.contains(&k.coord.y) || state.distance(local, &k) > view_distance + side {
+                state.unload(&mut commands, k.coord);
             }
         }
-        for c in state.world().chunks_near(local, view_distance) {
+        for c in near {
             if rows.contains(&c.y) {
                 state.load(&mut commands, entity, c, settings.default_threshold);
             }

@@ -6,6 +6,7 @@
 //! [`KdContourSystems::Poll`]): a result from an older field or threshold is
 //! dropped, and a panic inside a build is reported as [`ChunkFailed`].
 
+use crate::chunks::ChunkJob;
 use crate::messages::ChunkFailed;
 use crate::settings::KdContourSettings;
 use crate::state::VolumeState;
@@ -14,11 +15,13 @@ use crate::volume::{ChunkStatus, KdChunk};
 use crate::KdContourSystems;
 use bevy::prelude::*;
 use bevy::tasks::{futures::check_ready, AsyncComputeTaskPool};
+use kdcontour::world::ChunkKey;
 use kdcontour::{IndexedMesh, KdTree};
 
 /// A finished build.
 pub(crate) struct BuildOut {
     generation: u64,
+    job: ChunkJob,
     result: Result<KdTree, String>,
     ms: f64,
 }
@@ -61,8 +64,8 @@ enum Work {
 impl VolumeState {
     /// Chunks waiting for `work` that can start now, nearest the camera first
     /// (ties in a fixed order, so runs are reproducible).
-    fn waiting(&self, work: Work) -> Vec<IVec3> {
-        let mut v: Vec<IVec3> = self
+    fn waiting(&self, work: Work) -> Vec<ChunkKey> {
+        let mut v: Vec<ChunkKey> = self
             .slots
             .iter()
             .filter(|(_, s)| match work {
@@ -78,12 +81,12 @@ impl VolumeState {
     }
 
     /// Starts `work` on chunk `c`; false when no task was needed.
-    fn start(&mut self, work: Work, c: IVec3) -> bool {
+    fn start(&mut self, work: Work, c: ChunkKey) -> bool {
         let pool = AsyncComputeTaskPool::get();
         match work {
             Work::Extract => {
-                let threshold = self.world().threshold(c);
-                let snapshot = self.world().snapshot(c);
+                let threshold = self.world().threshold(&c);
+                let snapshot = self.world().snapshot(&c);
                 let slot = self.slots.get_mut(&c).expect("listed");
                 slot.need_extract = false;
                 let Some(snapshot) = snapshot else {
@@ -108,7 +111,7 @@ impl VolumeState {
                 }));
             }
             Work::Build => {
-                let job = self.world().chunk_build(c);
+                let job = self.world().chunk_build(&c);
                 let field = self.field().clone();
                 let slot = self.slots.get_mut(&c).expect("listed");
                 slot.need_build = false;
@@ -121,6 +124,7 @@ impl VolumeState {
                             .and_then(|r| r.map_err(|e| e.to_string()));
                     BuildOut {
                         generation,
+                        job,
                         result,
                         ms: t.elapsed().as_secs_f64() * 1e3,
                     }
@@ -148,7 +152,15 @@ fn schedule_tasks(
     let _time = clock.measure();
     let mut in_flight: usize = volumes.iter().map(|s| s.work_counts().running).sum();
     for mut state in &mut volumes {
-        for work in [Work::Extract, Work::Build] {
+        // During a level change nothing it waits for shows before every build
+        // has landed, and a build re-queues its neighbours' extractions: build
+        // first, so no extraction is done twice.
+        let order = if state.level_change_in_progress() {
+            [Work::Build, Work::Extract]
+        } else {
+            [Work::Extract, Work::Build]
+        };
+        for work in order {
             for c in state.waiting(work) {
                 if in_flight >= settings.max_tasks_in_flight {
                     return;
@@ -159,7 +171,7 @@ fn schedule_tasks(
                 in_flight += 1;
                 if let (Work::Build, Some(mut ch)) = (
                     work,
-                    state.chunk_entity(c).and_then(|e| chunks.get_mut(e).ok()),
+                    state.chunk_entity(&c).and_then(|e| chunks.get_mut(e).ok()),
                 ) {
                     ch.status = ChunkStatus::Busy;
                 }
@@ -187,29 +199,34 @@ fn poll_tasks(
                 stats.record_build(out.ms);
                 // An edit that came after this build started queued a newer one.
                 if out.generation == slot.build_gen {
-                    built.push((c, out.result));
+                    built.push((c, out.job, out.result));
                 }
             }
         }
-        built.sort_by_key(|(c, _)| (c.z, c.y, c.x));
-        for (c, result) in built {
+        built.sort_by_key(|(c, _, _)| c.order());
+        for (c, job, result) in built {
             match result {
-                Ok(tree) => state.world_mut().insert_tree(c, tree),
+                Ok(tree) => state.world_mut().insert_tree(&c, &job, tree),
                 Err(error) => {
-                    error!("chunk {c} of volume {entity}: {error}");
-                    state.world_mut().remove_tree(c);
-                    if let Some(mut ch) = state.chunk_entity(c).and_then(|e| chunks.get_mut(e).ok())
+                    error!(
+                        "chunk {} (level {}) of volume {entity}: {error}",
+                        c.coord, c.level
+                    );
+                    state.world_mut().remove_tree(&c);
+                    if let Some(mut ch) =
+                        state.chunk_entity(&c).and_then(|e| chunks.get_mut(e).ok())
                     {
                         ch.status = ChunkStatus::Failed(error.clone());
                     }
                     failed.write(ChunkFailed {
                         volume: entity,
-                        coord: c,
+                        coord: c.coord,
+                        level: c.level,
                         error,
                     });
                 }
             }
-            state.mark_extract(c);
+            state.mark_extract(&c);
         }
         for slot in state.slots.values_mut() {
             if let Some(out) = slot.extracting.as_mut().and_then(check_ready) {

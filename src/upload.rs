@@ -12,6 +12,7 @@ use crate::KdContourSystems;
 use bevy::asset::RenderAssetUsages;
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
+use kdcontour::world::ChunkKey;
 use kdcontour::IndexedMesh;
 
 /// Uploads chunk meshes.
@@ -49,63 +50,105 @@ pub(crate) fn apply_meshes(
     clock: Res<MainThreadClock>,
     mut meshes: ResMut<Assets<Mesh>>,
     mut volumes: Query<(Entity, &KdVolume, &mut VolumeState)>,
-    mut chunks: Query<(&mut KdChunk, Option<&Mesh3d>)>,
+    mut chunks: ChunkQuery,
     mut meshed: MessageWriter<ChunkMeshed>,
 ) {
     let _time = clock.measure();
     let mut budget = settings.max_uploads_per_frame;
     for (entity, vol, mut state) in &mut volumes {
-        let mut coords: Vec<IVec3> = state
+        let state = &mut *state;
+        let mut up = Upload {
+            commands: &mut commands,
+            meshes: &mut meshes,
+            chunks: &mut chunks,
+            meshed: &mut meshed,
+            volume: entity,
+            material: &vol.material,
+        };
+        // A level change whose meshes are all ready shows them in one frame,
+        // whatever the budget (see `crate::horizon`).
+        if state.transition_ready() {
+            for k in state.finish_transition(up.commands) {
+                up.show(state, k);
+            }
+        }
+        let mut keys: Vec<ChunkKey> = state
             .slots
             .iter()
-            .filter(|(_, s)| s.ready.is_some())
+            .filter(|(_, s)| s.ready.is_some() && !s.held)
             .map(|(c, _)| *c)
             .collect();
-        state.nearest_first(&mut coords);
-        for c in coords {
+        state.nearest_first(&mut keys);
+        for k in keys {
             if budget == 0 {
                 return;
             }
             budget -= 1;
-            let slot = state.slots.get_mut(&c).expect("listed");
-            let (threshold, mesh) = slot.ready.take().expect("listed");
-            let chunk = slot.entity;
-            let Ok((mut info, existing)) = chunks.get_mut(chunk) else {
-                continue;
-            };
-            let failed = matches!(info.status, ChunkStatus::Failed(_));
-            info.threshold = threshold;
-            info.triangles = mesh.triangle_count();
-            if mesh.is_empty() {
-                commands
-                    .entity(chunk)
-                    .remove::<(Mesh3d, MeshMaterial3d<StandardMaterial>)>();
-                if !failed {
-                    info.status = ChunkStatus::Empty;
+            up.show(state, k);
+        }
+    }
+}
+
+/// The chunk entities' info and meshes.
+type ChunkQuery<'w, 's> = Query<'w, 's, (&'static mut KdChunk, Option<&'static Mesh3d>)>;
+
+/// What showing a chunk's mesh needs.
+struct Upload<'a, 'w, 's, 'qw, 'qs, 'mw> {
+    commands: &'a mut Commands<'w, 's>,
+    meshes: &'a mut Assets<Mesh>,
+    chunks: &'a mut ChunkQuery<'qw, 'qs>,
+    meshed: &'a mut MessageWriter<'mw, ChunkMeshed>,
+    volume: Entity,
+    material: &'a Handle<StandardMaterial>,
+}
+
+impl Upload<'_, '_, '_, '_, '_, '_> {
+    /// Shows chunk `k`'s waiting mesh on its entity.
+    fn show(&mut self, state: &mut VolumeState, k: ChunkKey) {
+        let Some(slot) = state.slots.get_mut(&k) else {
+            return;
+        };
+        let Some((threshold, mesh)) = slot.ready.take() else {
+            return;
+        };
+        slot.shown = true;
+        let chunk = slot.entity;
+        let Ok((mut info, existing)) = self.chunks.get_mut(chunk) else {
+            return;
+        };
+        let failed = matches!(info.status, ChunkStatus::Failed(_));
+        info.threshold = threshold;
+        info.triangles = mesh.triangle_count();
+        if mesh.is_empty() {
+            self.commands
+                .entity(chunk)
+                .remove::<(Mesh3d, MeshMaterial3d<StandardMaterial>)>();
+            if !failed {
+                info.status = ChunkStatus::Empty;
+            }
+        } else {
+            let bevy_mesh = to_bevy_mesh(&mesh);
+            match existing {
+                Some(Mesh3d(handle)) if self.meshes.get(handle.id()).is_some() => {
+                    let _ = self.meshes.insert(handle.id(), bevy_mesh);
                 }
-            } else {
-                let bevy_mesh = to_bevy_mesh(&mesh);
-                match existing {
-                    Some(Mesh3d(handle)) if meshes.get(handle.id()).is_some() => {
-                        let _ = meshes.insert(handle.id(), bevy_mesh);
-                    }
-                    _ => {
-                        let handle = meshes.add(bevy_mesh);
-                        commands
-                            .entity(chunk)
-                            .insert((Mesh3d(handle), MeshMaterial3d(vol.material.clone())));
-                    }
-                }
-                if !failed {
-                    info.status = ChunkStatus::Meshed;
+                _ => {
+                    let handle = self.meshes.add(bevy_mesh);
+                    self.commands
+                        .entity(chunk)
+                        .insert((Mesh3d(handle), MeshMaterial3d(self.material.clone())));
                 }
             }
-            meshed.write(ChunkMeshed {
-                volume: entity,
-                chunk,
-                coord: c,
-                triangles: mesh.triangle_count(),
-            });
+            if !failed {
+                info.status = ChunkStatus::Meshed;
+            }
         }
+        self.meshed.write(ChunkMeshed {
+            volume: self.volume,
+            chunk,
+            coord: k.coord,
+            level: k.level,
+            triangles: mesh.triangle_count(),
+        });
     }
 }

@@ -3,6 +3,7 @@
 //! [`VolumeState`] and rebuilds a volume whose field or iso level changed. It
 //! also orders [`KdContourSystems`], the sets every other subsystem runs in.
 
+use crate::chunks::VolumeWorld;
 use crate::settings::KdContourSettings;
 use crate::state::VolumeState;
 use crate::stats::MainThreadClock;
@@ -43,6 +44,24 @@ pub enum VolumeExtent {
         /// Lowest chunk row.
         min_y: i32,
         /// Highest chunk row.
+        max_y: i32,
+    },
+    /// Unbounded terrain seen to the horizon: chunks whose cells double with
+    /// distance from the [`LodCamera`] (an octree of chunk levels, see
+    /// [`crate::horizon`]), so the cost of a view grows with the log of its
+    /// distance. Finest (level-0) chunks reach about `level0_cells` cells from
+    /// the camera, each coarser level about twice as far, and the terrain reaches
+    /// at least `view_cells` cells out along x and z. Chunks that lie wholly
+    /// outside level-0 chunk rows `min_y..=max_y` are not built.
+    Horizon {
+        /// Cells the terrain reaches from the camera along x and z (at least
+        /// one chunk).
+        view_cells: u32,
+        /// Cells the finest chunks reach from the camera.
+        level0_cells: u32,
+        /// Lowest level-0 chunk row.
+        min_y: i32,
+        /// Highest level-0 chunk row.
         max_y: i32,
     },
 }
@@ -106,22 +125,57 @@ impl KdVolume {
         }
     }
 
+    /// Unbounded terrain seen to the horizon: chunk levels around the camera
+    /// reaching `view_cells` cells out (see [`VolumeExtent::Horizon`]); finest
+    /// chunks within two chunks of the camera, level-0 chunk rows -2 to 1
+    /// (change them with [`KdVolume::with_level0`] and [`KdVolume::with_rows`]).
+    /// `chunk_res` must be even.
+    pub fn horizon(field: Arc<dyn Field>, chunk_res: u32, cell_size: f32, view_cells: u32) -> Self {
+        KdVolume {
+            field: SharedField(field),
+            extent: VolumeExtent::Horizon {
+                view_cells,
+                level0_cells: 2 * chunk_res,
+                min_y: -2,
+                max_y: 1,
+            },
+            chunk_res,
+            cell_size,
+            iso: 0.0,
+            material: Handle::default(),
+        }
+    }
+
+    /// A horizon volume whose finest chunks reach `cells` cells from the camera
+    /// (no effect on other extents).
+    pub fn with_level0(mut self, cells: u32) -> Self {
+        if let VolumeExtent::Horizon { level0_cells, .. } = &mut self.extent {
+            *level0_cells = cells;
+        }
+        self
+    }
+
     /// The same volume with its surface at level `iso` of the field.
     pub fn with_iso(mut self, iso: f32) -> Self {
         self.iso = iso;
         self
     }
 
-    /// A streaming volume limited to chunk rows `min_y..=max_y` (no effect on a
-    /// bounded one).
+    /// A streaming or horizon volume limited to level-0 chunk rows
+    /// `min_y..=max_y` (no effect on a bounded one).
     pub fn with_rows(mut self, min_y: i32, max_y: i32) -> Self {
-        if let VolumeExtent::Streaming {
-            min_y: lo,
-            max_y: hi,
-            ..
-        } = &mut self.extent
-        {
-            (*lo, *hi) = (min_y, max_y);
+        match &mut self.extent {
+            VolumeExtent::Streaming {
+                min_y: lo,
+                max_y: hi,
+                ..
+            }
+            | VolumeExtent::Horizon {
+                min_y: lo,
+                max_y: hi,
+                ..
+            } => (*lo, *hi) = (min_y, max_y),
+            VolumeExtent::Bounded { .. } => {}
         }
         self
     }
@@ -167,8 +221,10 @@ pub enum ChunkStatus {
 pub struct KdChunk {
     /// The volume it belongs to.
     pub volume: Entity,
-    /// Its chunk coordinates.
+    /// Its chunk coordinates (in chunks of its level).
     pub coord: IVec3,
+    /// Its level: cells of `2^level` volume cells (0 in a one-level volume).
+    pub level: u32,
     /// The threshold of the mesh it shows.
     pub threshold: f32,
     /// Triangles in the mesh it shows.
@@ -249,30 +305,43 @@ fn init_volumes(
                 chunks,
                 settings.default_threshold,
                 core,
-            ),
+            )
+            .map(VolumeWorld::Flat),
             VolumeExtent::Streaming {
                 view_distance,
                 min_y,
                 max_y,
-            } => {
-                if !(view_distance.is_finite() && view_distance >= 0.0) || min_y > max_y {
-                    Err(kdcontour::Error::InvalidSetting {
-                        name: "extent",
-                        reason: format!(
-                            "view_distance {view_distance} must be finite and >= 0, \
+            } => if !(view_distance.is_finite() && view_distance >= 0.0) || min_y > max_y {
+                Err(kdcontour::Error::InvalidSetting {
+                    name: "extent",
+                    reason: format!(
+                        "view_distance {view_distance} must be finite and >= 0, \
                              and min_y {min_y} <= max_y {max_y}"
-                        ),
-                    })
-                } else {
-                    ChunkWorld::unbounded(
-                        Vec3::ZERO,
-                        vol.cell_size,
-                        vol.chunk_res,
-                        settings.default_threshold,
-                        core,
-                    )
-                }
+                    ),
+                })
+            } else {
+                ChunkWorld::unbounded(
+                    Vec3::ZERO,
+                    vol.cell_size,
+                    vol.chunk_res,
+                    settings.default_threshold,
+                    core,
+                )
             }
+            .map(VolumeWorld::Flat),
+            VolumeExtent::Horizon {
+                view_cells,
+                level0_cells,
+                min_y,
+                max_y,
+            } => crate::horizon::new_world(
+                vol,
+                (view_cells, level0_cells),
+                (min_y, max_y),
+                settings.default_threshold,
+                core,
+            )
+            .map(VolumeWorld::Levels),
         };
         let world = match world {
             Ok(w) => w,
@@ -285,10 +354,14 @@ fn init_volumes(
         let field = EditedField::new(KdVolume::shifted(&vol.field.0, vol.iso));
         let mut state = VolumeState::new(world, field, (vol.field.0.clone(), vol.iso));
         // A bounded world already lists its chunks; give each an entity. (A
-        // streaming world is empty until streaming runs.)
-        for c in state.world().coords() {
-            state.world_mut().remove_chunk(c);
-            state.load(&mut commands, entity, c, settings.default_threshold);
+        // streaming or horizon world is empty until streaming runs.)
+        if let VolumeExtent::Bounded { .. } = vol.extent {
+            for c in state.world().chunks() {
+                if let Some(w) = state.world_mut().flat_mut() {
+                    w.remove_chunk(c.coord);
+                }
+                state.load(&mut commands, entity, c.coord, settings.default_threshold);
+            }
         }
         commands.entity(entity).insert(state);
     }
@@ -318,9 +391,7 @@ fn sync_volumes(
             Ok(f) => {
                 state.set_field(f);
                 state.base = (vol.field.0.clone(), vol.iso);
-                for c in state.world().coords() {
-                    state.mark_build(c);
-                }
+                state.rebuild_all();
             }
             Err(e) => warn!("KdVolume {entity}: replaying the edits failed: {e}"),
         }

@@ -3,10 +3,12 @@
 //! lost under a stream of edits and camera moves, LOD never re-samples, and a
 //! panicking field is reported without taking the app down.
 
-use bevy::mesh::VertexAttributeValues;
+mod common;
+
 use bevy::prelude::*;
-use bevy_kdcontour::headless::{run_until_settled, HeadlessPlugins};
+use bevy_kdcontour::headless::HeadlessPlugins;
 use bevy_kdcontour::prelude::*;
+use common::{settle, shown};
 use kdcontour::edit::EditedField;
 use kdcontour::{ChunkWorld, CsgNode, Field, IndexedMesh};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -50,31 +52,9 @@ fn spawn(app: &mut App, field: Arc<dyn Field>) -> Entity {
         .id()
 }
 
-fn settle(app: &mut App, volume: Entity) {
-    let pause = std::time::Duration::from_micros(200);
-    assert!(
-        run_until_settled(app, volume, 5000, pause),
-        "the volume did not settle"
-    );
-}
-
-/// The mesh a chunk entity shows, as positions and indices.
-fn shown(app: &App, chunk: Entity) -> Option<(Vec<[f32; 3]>, Vec<u32>)> {
-    let handle = app.world().get::<Mesh3d>(chunk)?;
-    let mesh = app.world().resource::<Assets<Mesh>>().get(handle.id())?;
-    let Some(VertexAttributeValues::Float32x3(p)) = mesh.attribute(Mesh::ATTRIBUTE_POSITION) else {
-        panic!("no positions")
-    };
-    let idx = match mesh.indices() {
-        Some(bevy::mesh::Indices::U32(i)) => i.clone(),
-        other => panic!("{other:?}"),
-    };
-    Some((p.clone(), idx))
-}
-
 /// A from-scratch world of `field` at the thresholds `state` uses.
 fn fresh(field: &dyn Field, state: &VolumeState) -> ChunkWorld {
-    let w = state.world();
+    let w = state.world().flat().unwrap();
     let mut f = ChunkWorld::unbounded(
         Vec3::ZERO,
         w.cell_size,
@@ -100,7 +80,7 @@ fn assert_matches_fresh(app: &App, volume: Entity, field: &dyn Field) {
     let mut total = 0;
     for c in f.coords() {
         f.snapshot(c).unwrap().extract(&mut want);
-        let entity = state.chunk_entity(c).unwrap();
+        let entity = state.chunk_entity(&ChunkKey::new(0, c)).unwrap();
         match shown(app, entity) {
             None => assert!(
                 want.is_empty(),
@@ -158,9 +138,16 @@ fn one_edit_rebuilds_exactly_the_chunks_it_meets() {
     let before: Vec<(IVec3, usize)> = {
         let s = app.world().get::<VolumeState>(v).unwrap();
         s.world()
+            .flat()
+            .unwrap()
             .coords()
             .into_iter()
-            .map(|c| (c, s.world().tree(c).unwrap() as *const _ as usize))
+            .map(|c| {
+                (
+                    c,
+                    s.world().flat().unwrap().tree(c).unwrap() as *const _ as usize,
+                )
+            })
             .collect()
     };
     // A ball around the chunk corner at (1/3, 1/3, 1/3) of the cube, local space.
@@ -176,7 +163,8 @@ fn one_edit_rebuilds_exactly_the_chunks_it_meets() {
         .drain()
         .collect();
     assert_eq!(applied.len(), 1);
-    let mut rebuilt = applied[0].rebuilt.clone();
+    assert!(applied[0].rebuilt.iter().all(|k| k.level == 0));
+    let mut rebuilt: Vec<IVec3> = applied[0].rebuilt.iter().map(|k| k.coord).collect();
     rebuilt.sort_by_key(|c| (c.z, c.y, c.x));
     // The eight chunks around that corner.
     let mut want: Vec<IVec3> = (0..8)
@@ -187,7 +175,7 @@ fn one_edit_rebuilds_exactly_the_chunks_it_meets() {
     settle(&mut app, v);
     let s = app.world().get::<VolumeState>(v).unwrap();
     for (c, ptr) in before {
-        let now = s.world().tree(c).unwrap() as *const _ as usize;
+        let now = s.world().flat().unwrap().tree(c).unwrap() as *const _ as usize;
         assert_eq!(
             now != ptr,
             want.contains(&c),
@@ -279,9 +267,11 @@ fn moving_the_camera_re_extracts_without_sampling() {
     let thresholds = |app: &App| {
         let s = app.world().get::<VolumeState>(v).unwrap();
         s.world()
+            .flat()
+            .unwrap()
             .coords()
             .into_iter()
-            .map(|c| s.world().threshold(c))
+            .map(|c| s.world().flat().unwrap().threshold(c))
             .collect::<Vec<_>>()
     };
     let t0 = thresholds(&app);
@@ -344,6 +334,8 @@ fn a_panicking_field_is_reported_and_the_app_keeps_running() {
 fn expected_stream(state: &VolumeState, cam: Vec3, view: f32, rows: (i32, i32)) -> Vec<IVec3> {
     let mut v: Vec<IVec3> = state
         .world()
+        .flat()
+        .unwrap()
         .chunks_near(cam, view)
         .into_iter()
         .filter(|c| (rows.0..=rows.1).contains(&c.y))
@@ -376,13 +368,13 @@ fn streaming_terrain_loads_around_the_camera_and_drops_what_it_leaves() {
     let check = |app: &mut App, at: Vec3| {
         let state = app.world().get::<VolumeState>(v).unwrap();
         let want = expected_stream(state, at, view, rows);
-        let have = state.world().coords();
+        let have = state.world().flat().unwrap().coords();
         // Everything in range is loaded; anything else is within the slack.
         for c in &want {
             assert!(have.contains(c), "chunk {c} in range but not loaded");
         }
         for c in &have {
-            let (lo, hi) = state.world().chunk_bounds(*c);
+            let (lo, hi) = state.world().flat().unwrap().chunk_bounds(*c);
             assert!(
                 at.clamp(lo, hi).distance(at) <= view + 8.0,
                 "chunk {c} kept too far"
@@ -459,8 +451,12 @@ fn a_subsystem_can_be_left_out() {
     settle(&mut app, v);
     let default = KdContourSettings::default().default_threshold;
     let state = app.world().get::<VolumeState>(v).unwrap();
-    for c in state.world().coords() {
-        assert_eq!(state.world().threshold(c), default, "chunk {c}");
+    for c in state.world().flat().unwrap().coords() {
+        assert_eq!(
+            state.world().flat().unwrap().threshold(c),
+            default,
+            "chunk {c}"
+        );
     }
     assert_matches_fresh(&app, v, &*torus());
     // With it, the same camera sets other thresholds.
@@ -470,11 +466,12 @@ fn a_subsystem_can_be_left_out() {
     let v = spawn(&mut app, torus());
     settle(&mut app, v);
     let state = app.world().get::<VolumeState>(v).unwrap();
-    assert!(state
+    assert!(state.world().flat().unwrap().coords().iter().any(|&c| state
         .world()
-        .coords()
-        .iter()
-        .any(|&c| state.world().threshold(c) != default));
+        .flat()
+        .unwrap()
+        .threshold(c)
+        != default));
 }
 
 #[test]

@@ -226,6 +226,12 @@ impl LevelWorld {
         s.built_for = build.neighbourhood.clone();
     }
 
+    /// Forgets chunk `k`'s tree (a failed build): its mesh and the seams it owns
+    /// become empty, and [`LevelWorld::stale`] lists it again.
+    pub fn remove_tree(&mut self, k: &ChunkKey) {
+        self.slot_mut(k).tree = None;
+    }
+
     /// Samples `field` for chunk `k` and builds its tree (replacing an old one).
     pub fn build_chunk(&mut self, k: &ChunkKey, field: &dyn Field) -> Result<()> {
         let b = self.chunk_build(k);

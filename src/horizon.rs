@@ -1,0 +1,299 @@
+//! The far horizon: chunk levels around the camera for
+//! [`VolumeExtent::Horizon`](crate::VolumeExtent::Horizon) volumes (run by the
+//! streaming subsystem).
+//!
+//! ## The layout
+//! The core's [`LevelWorld`] holds an octree of chunks over a region of top-level
+//! chunks (level `T`, the smallest whose chunks are at least `view_cells` wide):
+//! along x and z the 3 x 3 top chunks around the one that holds the camera, so
+//! the terrain reaches at least `view_cells` out; along y the top chunks that
+//! cover the volume's rows. [`Layout::around`] splits a chunk while the camera
+//! is within `level0_cells / (2 * chunk_res)` of its own side, so level-0 chunks
+//! reach about `level0_cells` from the camera and every level about twice as far
+//! as the one below it, balanced 2:1. Chunks wholly outside the rows get no
+//! entity and are not built. The layout is recomputed when the camera enters
+//! another level-0 chunk.
+//!
+//! ## Changing levels without a hole or an overlap
+//! A new layout adds chunks, drops chunks, and changes the neighbourhood (so the
+//! samples, see [`kdcontour::world::levels`]) or the seams of chunks it keeps. A
+//! level change is a [`Transition`]: it waits for a new mesh of every added
+//! chunk, every kept chunk whose neighbourhood changed, and every chunk that
+//! owns a seam touching one of them or a dropped chunk. Those meshes are held
+//! back, and the dropped chunks stay shown, until all of them are ready; then
+//! the held meshes are shown and the dropped chunks despawned in one frame. So
+//! the shown chunks always cover the loaded region exactly once, and never show
+//! two levels in the same place. While a transition runs, the next layout waits
+//! (the camera's latest position is used when it ends); edits and threshold
+//! changes go on as usual, and an edit that reaches a waiting chunk makes the
+//! transition wait for its rebuild too, so no edit is lost.
+//!
+//! The first layout of a volume replaces nothing: its chunks show as they land.
+
+use crate::state::{Transition, VolumeState};
+use crate::volume::KdVolume;
+use bevy::prelude::*;
+use kdcontour::world::layout::MAX_LEVEL;
+use kdcontour::world::{ChunkKey, Layout};
+use kdcontour::{LevelWorld, Settings};
+
+/// Level-0 chunk rows `min_y..=max_y`.
+type Rows = (i32, i32);
+
+/// The level world of a new horizon volume (its layout comes from the camera
+/// when streaming first runs). Checks the extent's settings.
+pub(crate) fn new_world(
+    vol: &KdVolume,
+    (view_cells, level0_cells): (u32, u32),
+    (min_y, max_y): Rows,
+    threshold: f32,
+    settings: Settings,
+) -> kdcontour::Result<LevelWorld> {
+    let bad = |reason: String| {
+        Err(kdcontour::Error::InvalidSetting {
+            name: "extent",
+            reason,
+        })
+    };
+    if min_y > max_y {
+        return bad(format!("min_y {min_y} must be <= max_y {max_y}"));
+    }
+    if view_cells < vol.chunk_res || level0_cells > view_cells {
+        return bad(format!(
+            "view_cells {view_cells} must be at least chunk_res {} and at least \
+             level0_cells {level0_cells}",
+            vol.chunk_res
+        ));
+    }
+    if top_level(vol.chunk_res, view_cells) > MAX_LEVEL {
+        return bad(format!(
+            "view_cells {view_cells} needs more than {MAX_LEVEL} levels of {}-cell chunks",
+            vol.chunk_res
+        ));
+    }
+    let placeholder = Layout::uniform(IVec3::ZERO, IVec3::ONE, 0)?;
+    LevelWorld::new(
+        Vec3::ZERO,
+        vol.cell_size,
+        vol.chunk_res,
+        placeholder,
+        threshold,
+        settings,
+    )
+}
+
+/// The top level: the smallest whose chunks are at least `view_cells` wide.
+fn top_level(chunk_res: u32, view_cells: u32) -> u32 {
+    let chunks = view_cells.div_ceil(chunk_res.max(1)).max(1);
+    chunks.next_power_of_two().trailing_zeros()
+}
+
+/// The layout of a horizon volume with the camera at `camera` (local units):
+/// see the module docs.
+pub fn horizon_layout(
+    world: &LevelWorld,
+    camera: Vec3,
+    (view_cells, level0_cells): (u32, u32),
+    (min_y, max_y): Rows,
+) -> kdcontour::Result<Layout> {
+    let top = top_level(world.chunk_res, view_cells);
+    let side = 1i32 << top;
+    let cam = world.to_chunk_units(camera);
+    let held = (cam / side as f32).floor().as_ivec3();
+    let lo = IVec3::new(
+        (held.x - 1) * side,
+        min_y.div_euclid(side) * side,
+        (held.z - 1) * side,
+    );
+    let hi = IVec3::new(
+        (held.x + 2) * side,
+        (max_y.div_euclid(side) + 1) * side,
+        (held.z + 2) * side,
+    );
+    let ring = level0_cells as f32 / (2 * world.chunk_res) as f32;
+    Layout::around(lo, hi, top, cam, ring)
+}
+
+/// Whether chunk `k` reaches into level-0 chunk rows `rows`.
+fn in_rows(k: &ChunkKey, (min_y, max_y): Rows) -> bool {
+    k.lo().y <= max_y && k.hi().y > min_y
+}
+
+/// Follows the camera: when it enters another level-0 chunk (and no level
+/// change is running), lays the volume out around it and starts the change.
+pub(crate) fn stream(
+    commands: &mut Commands,
+    volume: Entity,
+    state: &mut VolumeState,
+    camera: Vec3,
+    cells: (u32, u32),
+    rows: Rows,
+    threshold: f32,
+) {
+    if state.transition.is_some() {
+        return;
+    }
+    let Some(world) = state.world().levels() else {
+        return;
+    };
+    let key = (
+        world.to_chunk_units(camera).floor().as_ivec3(),
+        ((cells.0 as u64) << 32) | cells.1 as u64,
+        rows.0,
+        rows.1,
+    );
+    if state.stream_key == Some(key) {
+        return;
+    }
+    let layout = horizon_layout(world, camera, cells, rows);
+    let unchanged = layout.as_ref().is_ok_and(|l| l == world.layout());
+    state.stream_key = Some(key);
+    if unchanged && !state.slots.is_empty() {
+        return;
+    }
+    let layout = match layout {
+        Ok(l) => l,
+        Err(e) => {
+            error!("KdVolume {volume}: {e}");
+            return;
+        }
+    };
+    if let Err(e) = state.relayout(commands, volume, layout, rows, threshold) {
+        error!("KdVolume {volume}: {e}");
+    }
+}
+
+impl VolumeState {
+    /// Replaces the layout and starts the level change (see the module docs).
+    pub(crate) fn relayout(
+        &mut self,
+        commands: &mut Commands,
+        volume: Entity,
+        layout: Layout,
+        rows: Rows,
+        threshold: f32,
+    ) -> kdcontour::Result<()> {
+        layout.check()?;
+        let first = !self.slots.values().any(|s| s.shown);
+        let dropped: Vec<ChunkKey> = self
+            .slots
+            .keys()
+            .filter(|k| !layout.contains(k) || !in_rows(k, rows))
+            .copied()
+            .collect();
+        // The kept chunks that own seams with dropped ones (in the old layout).
+        let mut touched: Vec<ChunkKey> = Vec::new();
+        for k in &dropped {
+            touched.extend(self.world().seam_owners_touching(k));
+        }
+        let world = self
+            .world_mut()
+            .levels_mut()
+            .expect("horizon volumes have a level world");
+        let stale = world.set_layout(layout)?;
+        let members: Vec<ChunkKey> = world
+            .chunks()
+            .into_iter()
+            .filter(|k| in_rows(k, rows))
+            .collect();
+        let mut retired = Vec::new();
+        for k in &dropped {
+            let slot = self.slots.remove(k).expect("listed");
+            if slot.shown && !first {
+                retired.push((*k, slot.entity));
+            } else {
+                commands.entity(slot.entity).despawn();
+            }
+        }
+        for k in members {
+            if !self.slots.contains_key(&k) {
+                self.add_slot(commands, volume, k, threshold);
+            }
+        }
+        for k in &stale {
+            self.mark_build(k);
+            touched.extend(self.world().seam_owners_touching(k));
+        }
+        touched.retain(|k| self.slots.contains_key(k));
+        touched.sort_by_key(|k| k.order());
+        touched.dedup();
+        for k in &touched {
+            let slot = self.slots.get_mut(k).expect("kept");
+            slot.held = !first;
+            slot.ready = None;
+            slot.extract_stamp += 1;
+            slot.need_extract = true;
+        }
+        self.transition = Some(Transition {
+            waiting: touched,
+            hold: !first,
+            retired,
+        });
+        Ok(())
+    }
+
+    /// Whether the level change in progress has every mesh it waits for.
+    pub(crate) fn transition_ready(&self) -> bool {
+        let Some(t) = &self.transition else {
+            return false;
+        };
+        t.waiting.iter().all(|k| {
+            self.slots.get(k).is_none_or(|s| {
+                !s.need_build
+                    && s.building.is_none()
+                    && !s.need_extract
+                    && s.extracting.is_none()
+                    && if t.hold {
+                        s.ready.is_some()
+                    } else {
+                        s.shown && s.ready.is_none()
+                    }
+            })
+        })
+    }
+
+    /// Ends the level change: despawns the chunks it replaced and returns the
+    /// chunks whose held meshes must be shown in this same frame.
+    pub(crate) fn finish_transition(&mut self, commands: &mut Commands) -> Vec<ChunkKey> {
+        let Some(t) = self.transition.take() else {
+            return Vec::new();
+        };
+        for (_, e) in t.retired {
+            commands.entity(e).despawn();
+        }
+        let mut show = Vec::new();
+        for k in t.waiting {
+            if let Some(slot) = self.slots.get_mut(&k) {
+                if slot.held {
+                    slot.held = false;
+                    if slot.ready.is_some() {
+                        show.push(k);
+                    }
+                }
+            }
+        }
+        show
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_top_level_is_the_first_at_least_as_wide_as_the_view() {
+        assert_eq!(top_level(32, 32), 0);
+        assert_eq!(top_level(32, 33), 1);
+        assert_eq!(top_level(32, 4096), 7);
+        assert_eq!(top_level(32, 5000), 8);
+    }
+
+    #[test]
+    fn rows_keep_the_chunks_that_reach_into_them() {
+        assert!(in_rows(&ChunkKey::new(0, IVec3::new(0, -2, 0)), (-2, 1)));
+        assert!(!in_rows(&ChunkKey::new(0, IVec3::new(0, 2, 0)), (-2, 1)));
+        // A level-3 chunk from row -8 to row -1 reaches into -2..=1.
+        assert!(in_rows(&ChunkKey::new(3, IVec3::new(0, -1, 0)), (-2, 1)));
+        assert!(!in_rows(&ChunkKey::new(3, IVec3::new(0, -2, 0)), (-2, 1)));
+    }
+}

@@ -1,0 +1,267 @@
+//! A horizon volume (chunk levels around the camera) in a headless app: while the
+//! camera flies a scripted path, with edits near and far, the shown chunks cover
+//! the loaded region exactly once at every frame (no gap, no chunk shown beside
+//! its replacement); after the camera stops, every shown mesh equals a
+//! from-scratch build of its level world, and no edit is lost.
+
+mod common;
+
+use bevy::prelude::*;
+use bevy_kdcontour::headless::HeadlessPlugins;
+use bevy_kdcontour::prelude::*;
+use common::{settle, shown};
+use kdcontour::field::FnField;
+use kdcontour::{Field, IndexedMesh, LevelWorld};
+use std::collections::HashMap;
+use std::sync::Arc;
+
+/// Cells per chunk side.
+const RES: u32 = 8;
+/// The view reaches 64 cells: top level 3 (chunks of 8 level-0 chunks).
+const VIEW: u32 = 64;
+/// Level-0 chunk rows kept.
+const ROWS: (i32, i32) = (-2, 1);
+
+fn app() -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        HeadlessPlugins,
+        KdContourPlugins {
+            settings: KdContourSettings {
+                lod: LodSettings {
+                    base: 0.01,
+                    near: 8.0,
+                    ..Default::default()
+                },
+                ..Default::default()
+            },
+        },
+    ));
+    app
+}
+
+/// Rolling hills about 4 cells high, with a hollow under (40, 0, 20).
+fn hills() -> Arc<dyn Field> {
+    Arc::new(FnField(|p: Vec3| {
+        let ground = p.y - 4.0 * (p.x * 0.09).sin() * (p.z * 0.07).cos();
+        let hollow = 5.0 - p.distance(Vec3::new(40.0, -3.0, 20.0));
+        ground.max(hollow)
+    }))
+}
+
+fn spawn(app: &mut App, field: Arc<dyn Field>) -> Entity {
+    app.world_mut()
+        .spawn(KdVolume::horizon(field, RES, 1.0, VIEW).with_level0(2 * RES))
+        .id()
+}
+
+/// Checks that the shown chunks cover the loaded region once: along x and z
+/// three top-level chunks, along y the kept rows, every level-0 chunk of it in
+/// exactly one shown chunk; and that every shown chunk's entity is the chunk.
+fn check_cover(app: &App, volume: Entity) -> Result<usize, String> {
+    let state = app.world().get::<VolumeState>(volume).unwrap();
+    let shown = state.shown_chunks();
+    let lo = shown
+        .iter()
+        .map(|(k, _)| k.lo())
+        .reduce(IVec3::min)
+        .unwrap();
+    let hi = shown
+        .iter()
+        .map(|(k, _)| k.hi())
+        .reduce(IVec3::max)
+        .unwrap();
+    let top = (VIEW / RES) as i32;
+    if hi.x - lo.x != 3 * top || hi.z - lo.z != 3 * top {
+        return Err(format!("the shown chunks span {lo}..{hi}"));
+    }
+    let (y0, y1) = (ROWS.0, ROWS.1 + 1);
+    let size = (hi - lo).with_y(y1 - y0);
+    let mut count = vec![0u8; (size.x * size.y * size.z) as usize];
+    for (k, e) in &shown {
+        match app.world().get::<KdChunk>(*e) {
+            Some(c) if c.coord == k.coord && c.level == k.level => {}
+            other => return Err(format!("chunk {k:?} shows on {e}: {other:?}")),
+        }
+        let (a, b) = (k.lo(), k.hi());
+        for z in a.z..b.z {
+            for y in a.y.max(y0)..b.y.min(y1) {
+                for x in a.x..b.x {
+                    let i = ((z - lo.z) * size.y + (y - y0)) * size.x + (x - lo.x);
+                    count[i as usize] += 1;
+                }
+            }
+        }
+    }
+    if let Some(i) = count.iter().position(|&c| c != 1) {
+        let i = i as i32;
+        let at = IVec3::new(i % size.x, (i / size.x) % size.y, i / (size.x * size.y));
+        return Err(format!(
+            "level-0 chunk {} is shown {} times",
+            at + lo.with_y(y0),
+            count[i as usize]
+        ));
+    }
+    Ok(shown.len())
+}
+
+/// Every shown chunk's mesh equals the same chunk built from scratch, on the
+/// volume's layout, field and thresholds.
+fn assert_matches_fresh(app: &App, volume: Entity) {
+    let state = app.world().get::<VolumeState>(volume).unwrap();
+    let world = state.world().levels().unwrap();
+    let showing = state.shown_chunks();
+    let mut fresh = LevelWorld::new(
+        world.origin,
+        world.cell_size,
+        world.chunk_res,
+        world.layout().clone(),
+        0.01,
+        world.settings.clone(),
+    )
+    .unwrap();
+    let keys: Vec<ChunkKey> = showing.iter().map(|(k, _)| *k).collect();
+    let stray: Vec<_> = keys
+        .iter()
+        .filter(|k| !world.layout().contains(k))
+        .collect();
+    assert!(
+        stray.is_empty(),
+        "shown but not in the layout {:?}..{:?}: {stray:?}",
+        world.layout().lo(),
+        world.layout().hi()
+    );
+    for k in &keys {
+        fresh.set_threshold(k, world.threshold(k));
+    }
+    fresh.build(&keys, state.field()).unwrap();
+    let mut meshed = 0;
+    for (k, e) in &showing {
+        let mut want = IndexedMesh::default();
+        if let Some(s) = fresh.snapshot(k) {
+            s.extract(&mut want);
+        }
+        match shown(app, *e) {
+            None => assert!(want.is_empty(), "chunk {k:?} shows nothing"),
+            Some((p, i)) => {
+                meshed += 1;
+                let wp: Vec<[f32; 3]> = want.positions.iter().map(|v| v.to_array()).collect();
+                assert!(p == wp && i == want.indices, "chunk {k:?} differs");
+            }
+        }
+    }
+    assert!(meshed > 10, "only {meshed} chunks show a mesh");
+}
+
+#[test]
+fn a_flight_with_edits_keeps_the_horizon_whole_and_loses_nothing() {
+    let mut app = app();
+    let cam = app
+        .world_mut()
+        .spawn((LodCamera, Transform::from_xyz(40.0, 6.0, 4.0)))
+        .id();
+    let v = spawn(&mut app, hills());
+    settle(&mut app, v);
+    check_cover(&app, v).unwrap();
+    let levels = |app: &App| -> HashMap<u32, usize> {
+        let s = app.world().get::<VolumeState>(v).unwrap();
+        let mut n = HashMap::new();
+        for (k, _) in s.shown_chunks() {
+            *n.entry(k.level).or_default() += 1;
+        }
+        n
+    };
+    let first = levels(&app);
+    let region0 = app
+        .world()
+        .get::<VolumeState>(v)
+        .unwrap()
+        .world()
+        .levels()
+        .unwrap()
+        .layout()
+        .lo();
+    assert!(
+        (0..=2).all(|l| first.get(&l).copied().unwrap_or(0) > 0),
+        "levels 0 to 2 all shown: {first:?}"
+    );
+
+    // Fly 0.6 cells a frame along x (and 0.25 along z) for 240 frames, a frame
+    // about every 10 ms (about 60 cells a second): across many level-0 chunks
+    // and two top-level chunk borders (x = 64 and 128), so the region moves.
+    let mut edits = 0;
+    let mut far_rebuilt = Vec::new();
+    let mut changing = 0;
+    let mut regions = vec![region0];
+    for frame in 0..240 {
+        let p = Vec3::new(40.0 + 0.6 * frame as f32, 6.0, 4.0 + 0.25 * frame as f32);
+        app.world_mut()
+            .get_mut::<Transform>(cam)
+            .unwrap()
+            .translation = p;
+        let brush = match frame {
+            30 | 90 | 150 => Some(Brush::sphere(p.with_y(0.0), 3.0, BrushOp::Subtract)),
+            // A crater far out, where only coarse chunks are.
+            60 => Some(Brush::sphere(
+                p + Vec3::new(52.0, -6.0, 0.0),
+                6.0,
+                BrushOp::Subtract,
+            )),
+            _ => None,
+        };
+        if let Some(brush) = brush {
+            app.world_mut()
+                .write_message(ApplyEdit { volume: v, brush });
+            edits += 1;
+        }
+        app.update();
+        if frame == 60 {
+            let applied: Vec<EditApplied> = app
+                .world_mut()
+                .resource_mut::<Messages<EditApplied>>()
+                .drain()
+                .collect();
+            far_rebuilt = applied.last().unwrap().rebuilt.clone();
+        }
+        let state = app.world().get::<VolumeState>(v).unwrap();
+        if state.level_change_in_progress() {
+            changing += 1;
+        }
+        let lo = state.world().levels().unwrap().layout().lo();
+        if regions.last() != Some(&lo) {
+            regions.push(lo);
+        }
+        if let Err(e) = check_cover(&app, v) {
+            panic!("frame {frame}, camera {p}: {e}");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    assert!(
+        far_rebuilt.iter().any(|k| k.level >= 2),
+        "the far crater rebuilds coarse chunks: {far_rebuilt:?}"
+    );
+    settle(&mut app, v);
+    check_cover(&app, v).unwrap();
+    let state = app.world().get::<VolumeState>(v).unwrap();
+    assert_eq!(state.edit_log().len(), edits, "an edit was lost");
+    assert_matches_fresh(&app, v);
+    assert!(changing > 20, "levels changed in only {changing} frames");
+    assert!(regions.len() >= 3, "the region moved twice: {regions:?}");
+}
+
+#[test]
+fn bad_horizon_settings_are_reported_and_skipped() {
+    for vol in [
+        KdVolume::horizon(hills(), 7, 1.0, 64), // odd chunk_res
+        KdVolume::horizon(hills(), 8, 1.0, 4),  // view under one chunk
+        KdVolume::horizon(hills(), 8, 1.0, 64).with_level0(128),
+        KdVolume::horizon(hills(), 8, 1.0, 64).with_rows(2, 1),
+    ] {
+        let mut app = app();
+        let v = app.world_mut().spawn(vol).id();
+        app.update();
+        app.update();
+        assert!(app.world().get::<VolumeState>(v).is_none());
+        assert!(app.world().get::<KdVolume>(v).is_none(), "removed");
+    }
+}
