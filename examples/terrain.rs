@@ -1,16 +1,21 @@
-//! The main demo: endless noise terrain with overhangs and caves, streamed in
-//! chunks around a fly camera, each chunk cut at a threshold set by its distance to
-//! the camera (coarser far away, no cracks between chunks), and sculpted with the
-//! mouse. The brush is aimed by a ray cast against the field itself, not the mesh,
-//! so it hits what the field says is there even before a chunk is meshed.
+//! The main demo: endless noise terrain with overhangs and caves, seen to the
+//! horizon (2,048 cells by default) through chunk levels whose cells double with
+//! distance from a fly camera, crack-free between levels with no skirts; inside
+//! each level every chunk is cut at a threshold set by its distance to the
+//! camera; sculpted with the mouse. The brush is aimed by a ray cast against the
+//! field itself, not the mesh, so it hits what the field says is there even
+//! before a chunk is meshed.
 //!
 //! Keys: WASD move, E / Space up, Q down, Shift faster, arrow keys or middle mouse
 //! drag to look. Left mouse adds material, right mouse digs, the wheel sets the
-//! brush size. F1 hides the panel.
+//! brush size. L colours chunks by level (blue finest, red coarsest). F1 hides
+//! the panel.
 //!
 //! ```text
 //! cargo run --release --example terrain
 //! cargo run --release --example terrain -- --screenshot terrain.png
+//! cargo run --release --example terrain -- --overview --screenshot levels.png
+//! cargo run --release --example terrain -- --flat --view-distance 160
 //! ```
 
 mod common;
@@ -32,10 +37,20 @@ struct Args {
     /// Noise seed.
     #[arg(long, default_value_t = 7)]
     seed: u32,
-    /// Load radius around the camera, in cells.
-    #[arg(long, default_value_t = 160.0)]
+    /// How far the terrain reaches from the camera, in cells.
+    #[arg(long, default_value_t = 2048.0)]
     view_distance: f32,
-    /// Cells per chunk side.
+    /// How far the finest chunks reach from the camera, in cells.
+    #[arg(long, default_value_t = 64)]
+    level0_cells: u32,
+    /// One level of equal chunks streamed within --view-distance (the plugin
+    /// before chunk levels; keep the distance small, at most 512).
+    #[arg(long)]
+    flat: bool,
+    /// Look straight down from high above, chunks coloured by level.
+    #[arg(long)]
+    overview: bool,
+    /// Cells per chunk side (even).
     #[arg(long, default_value_t = 32)]
     chunk_res: u32,
     #[command(flatten)]
@@ -59,10 +74,28 @@ fn main() {
             args.view_distance
         ));
     }
-    if !(4..=128).contains(&args.chunk_res) {
+    if !(4..=128).contains(&args.chunk_res) || args.chunk_res % 2 == 1 {
         common::fail(format!(
-            "--chunk-res must be 4 to 128, got {}",
+            "--chunk-res must be even, 4 to 128, got {}",
             args.chunk_res
+        ));
+    }
+    if args.flat && args.view_distance > 512.0 {
+        common::fail(format!(
+            "--flat streams every chunk at full resolution: --view-distance must be \
+             at most 512 cells with it, got {} (leave out --flat to see further)",
+            args.view_distance
+        ));
+    }
+    if !args.flat
+        && !(args.view_distance >= args.chunk_res as f32
+            && args.view_distance <= 65536.0
+            && (1..=args.view_distance as u32).contains(&args.level0_cells))
+    {
+        common::fail(format!(
+            "--view-distance must be {} to 65536 cells and --level0-cells 1 to the view \
+             distance, got {} and {}",
+            args.chunk_res, args.view_distance, args.level0_cells
         ));
     }
     let field: Arc<dyn Field> = Arc::new(Density::new(DensityParams::demo(args.seed)));
@@ -75,6 +108,7 @@ fn main() {
         &args.shot,
         KdContourSettings {
             max_tasks_in_flight: 16,
+            color_by_lod: args.overview,
             lod: LodSettings {
                 base: 0.02,
                 near: 40.0,
@@ -92,13 +126,23 @@ fn main() {
     .insert_resource(Seed {
         field,
         view: args.view_distance,
+        level0: args.level0_cells,
+        flat: args.flat,
+        overview: args.overview,
         res: args.chunk_res,
         scripted,
     })
     .add_systems(Startup, setup)
     .add_systems(
         Update,
-        (common::fly_camera, sculpt, brush_preview, scripted_edits).chain(),
+        (
+            common::fly_camera,
+            sculpt,
+            brush_preview,
+            scripted_edits,
+            toggle_levels,
+        )
+            .chain(),
     )
     .run();
 }
@@ -107,6 +151,9 @@ fn main() {
 struct Seed {
     field: Arc<dyn Field>,
     view: f32,
+    level0: u32,
+    flat: bool,
+    overview: bool,
     res: u32,
     scripted: bool,
 }
@@ -117,32 +164,56 @@ fn setup(mut commands: Commands, seed: Res<Seed>, mut materials: ResMut<Assets<S
         perceptual_roughness: 0.95,
         ..default()
     });
+    let volume = if seed.flat {
+        KdVolume::streaming(seed.field.clone(), seed.res, 1.0, seed.view)
+    } else {
+        KdVolume::horizon(seed.field.clone(), seed.res, 1.0, seed.view as u32)
+            .with_level0(seed.level0)
+    };
     let volume = commands
-        .spawn(
-            KdVolume::streaming(seed.field.clone(), seed.res, 1.0, seed.view)
-                .with_rows(-3, 1)
-                .with_material(ground),
-        )
+        .spawn(volume.with_rows(-3, 1).with_material(ground))
         .id();
-    let (fly, transform) = common::FlyCam::looking(
-        Vec3::new(-30.0, 42.0, 70.0),
-        Vec3::new(25.0, 0.0, -5.0),
-        30.0,
-    );
-    commands.spawn((
-        Camera3d::default(),
-        fly,
-        transform,
-        LodCamera,
-        DistanceFog {
-            color: Color::srgb(0.62, 0.75, 0.9),
-            falloff: FogFalloff::Linear {
-                start: seed.view * 0.55,
-                end: seed.view * 0.95,
+    let (fly, transform) = if seed.overview {
+        // From high above, looking down at the rings of levels around a LOD
+        // camera standing 40 cells over the ground (so the rings are the ones a
+        // player there sees).
+        commands.spawn((LodCamera, Transform::from_xyz(0.0, 40.0, 0.0)));
+        let h = 1.8 * seed.view;
+        common::FlyCam::looking(Vec3::new(0.0, h, 0.3 * h), Vec3::ZERO, 30.0)
+    } else {
+        // Over the hills, looking out to the horizon.
+        common::FlyCam::looking(
+            Vec3::new(-30.0, 45.0, 70.0),
+            Vec3::new(120.0, -10.0, -80.0),
+            30.0,
+        )
+    };
+    // The far plane beyond the farthest chunk corner, and fog over the last
+    // stretch so the horizon fades instead of ending.
+    let far = 2.5 * seed.view;
+    let camera = commands
+        .spawn((
+            Camera3d::default(),
+            Projection::Perspective(PerspectiveProjection { far, ..default() }),
+            fly,
+            transform,
+            DistanceFog {
+                color: Color::srgb(0.62, 0.75, 0.9),
+                falloff: FogFalloff::Linear {
+                    start: if seed.overview { far } else { seed.view * 0.55 },
+                    end: if seed.overview {
+                        far * 1.5
+                    } else {
+                        seed.view * 0.95
+                    },
+                },
+                ..default()
             },
-            ..default()
-        },
-    ));
+        ))
+        .id();
+    if !seed.overview {
+        commands.entity(camera).insert(LodCamera);
+    }
     common::spawn_lights(&mut commands);
     commands.insert_resource(Sculpt {
         volume,
@@ -220,6 +291,13 @@ fn brush_preview(sculpt: Res<Sculpt>, mut gizmos: Gizmos) {
             sculpt.radius,
             Color::srgb(1.0, 0.85, 0.2),
         );
+    }
+}
+
+/// L toggles colouring chunks by level (a horizon volume) or by threshold band.
+fn toggle_levels(keys: Res<ButtonInput<KeyCode>>, mut settings: ResMut<KdContourSettings>) {
+    if keys.just_pressed(KeyCode::KeyL) {
+        settings.color_by_lod = !settings.color_by_lod;
     }
 }
 

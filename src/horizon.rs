@@ -119,6 +119,33 @@ fn in_rows(k: &ChunkKey, (min_y, max_y): Rows) -> bool {
     k.lo().y <= max_y && k.hi().y > min_y
 }
 
+/// Which chunks of a horizon layout are built and shown: those that reach into
+/// the rows and come within the view distance of the camera along x and z.
+/// Every point of the rows within `reach` of the camera lies in a kept chunk.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HorizonKeep {
+    /// The camera the layout was made for (level-0 chunk units).
+    pub camera: Vec3,
+    /// The view distance along x and z (level-0 chunks).
+    pub reach: f32,
+    /// Level-0 chunk rows `min_y..=max_y`.
+    pub rows: (i32, i32),
+}
+
+impl HorizonKeep {
+    /// Whether chunk `k` is built and shown.
+    pub fn keeps(&self, k: &ChunkKey) -> bool {
+        let c = self.camera.xz();
+        let nearest = c.clamp(k.lo().as_vec3().xz(), k.hi().as_vec3().xz());
+        in_rows(k, self.rows) && nearest.distance(c) <= self.reach
+    }
+}
+
+/// The camera in level-0 chunk units.
+fn key_camera(world: &LevelWorld, camera: Vec3) -> Vec3 {
+    world.to_chunk_units(camera)
+}
+
 /// Follows the camera: when it enters another level-0 chunk (and no level
 /// change is running), lays the volume out around it and starts the change.
 pub(crate) fn stream(
@@ -137,7 +164,7 @@ pub(crate) fn stream(
         return;
     };
     let key = (
-        world.to_chunk_units(camera).floor().as_ivec3(),
+        key_camera(world, camera).floor().as_ivec3(),
         ((cells.0 as u64) << 32) | cells.1 as u64,
         rows.0,
         rows.1,
@@ -146,11 +173,12 @@ pub(crate) fn stream(
         return;
     }
     let layout = horizon_layout(world, camera, cells, rows);
-    let unchanged = layout.as_ref().is_ok_and(|l| l == world.layout());
+    let keep = HorizonKeep {
+        camera: key_camera(world, camera),
+        reach: cells.0 as f32 / world.chunk_res as f32,
+        rows,
+    };
     state.stream_key = Some(key);
-    if unchanged && !state.slots.is_empty() {
-        return;
-    }
     let layout = match layout {
         Ok(l) => l,
         Err(e) => {
@@ -158,7 +186,7 @@ pub(crate) fn stream(
             return;
         }
     };
-    if let Err(e) = state.relayout(commands, volume, layout, rows, threshold) {
+    if let Err(e) = state.relayout(commands, volume, layout, keep, threshold) {
         error!("KdVolume {volume}: {e}");
     }
 }
@@ -170,7 +198,7 @@ impl VolumeState {
         commands: &mut Commands,
         volume: Entity,
         layout: Layout,
-        rows: Rows,
+        keep: HorizonKeep,
         threshold: f32,
     ) -> kdcontour::Result<()> {
         layout.check()?;
@@ -178,7 +206,7 @@ impl VolumeState {
         let dropped: Vec<ChunkKey> = self
             .slots
             .keys()
-            .filter(|k| !layout.contains(k) || !in_rows(k, rows))
+            .filter(|k| !layout.contains(k) || !keep.keeps(k))
             .copied()
             .collect();
         // The kept chunks that own seams with dropped ones (in the old layout).
@@ -191,10 +219,17 @@ impl VolumeState {
             .levels_mut()
             .expect("horizon volumes have a level world");
         let stale = world.set_layout(layout)?;
+        // A chunk the layout keeps but the view no longer does loses its tree,
+        // so no seam is cut against it.
+        for k in &dropped {
+            if world.layout().contains(k) {
+                world.remove_tree(k);
+            }
+        }
         let members: Vec<ChunkKey> = world
             .chunks()
             .into_iter()
-            .filter(|k| in_rows(k, rows))
+            .filter(|k| keep.keeps(k))
             .collect();
         let mut retired = Vec::new();
         for k in &dropped {
@@ -217,6 +252,10 @@ impl VolumeState {
         touched.retain(|k| self.slots.contains_key(k));
         touched.sort_by_key(|k| k.order());
         touched.dedup();
+        if touched.is_empty() && dropped.is_empty() {
+            // Nothing changed (the camera moved within the same rings).
+            return Ok(());
+        }
         for k in &touched {
             let slot = self.slots.get_mut(k).expect("kept");
             slot.held = !first;
@@ -227,6 +266,7 @@ impl VolumeState {
         self.transition = Some(Transition {
             waiting: touched,
             hold: !first,
+            keep,
             retired,
         });
         Ok(())
@@ -258,6 +298,9 @@ impl VolumeState {
         let Some(t) = self.transition.take() else {
             return Vec::new();
         };
+        if let Some(world) = self.world().levels() {
+            self.horizon_shown = Some((world.layout().clone(), t.keep));
+        }
         for (_, e) in t.retired {
             commands.entity(e).despawn();
         }

@@ -5,12 +5,13 @@
 //! [`ChunkKey`] (level 0 in a one-level world).
 
 use crate::chunks::VolumeWorld;
+use crate::horizon::HorizonKeep;
 use crate::tasks::{BuildOut, ExtractOut};
 use crate::volume::{ChunkStatus, KdChunk};
 use bevy::prelude::*;
 use bevy::tasks::Task;
 use kdcontour::edit::{Brush, EditedField};
-use kdcontour::world::ChunkKey;
+use kdcontour::world::{ChunkKey, Layout};
 use kdcontour::{Field, IndexedMesh};
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -68,6 +69,8 @@ pub(crate) struct Transition {
     /// Their meshes are held back and shown together (false for a first load,
     /// which replaces nothing).
     pub hold: bool,
+    /// Which chunks of the new layout are built and shown.
+    pub keep: HorizonKeep,
     /// The dropped chunks, still shown until the change is complete.
     pub retired: Vec<(ChunkKey, Entity)>,
 }
@@ -87,6 +90,8 @@ pub struct VolumeState {
     pub(crate) stream_key: Option<(IVec3, u64, i32, i32)>,
     /// The level change in progress, if any.
     pub(crate) transition: Option<Transition>,
+    /// A horizon volume's layout whose chunks are shown, and which of them.
+    pub(crate) horizon_shown: Option<(Layout, HorizonKeep)>,
 }
 
 impl VolumeState {
@@ -100,6 +105,7 @@ impl VolumeState {
             focus: Vec3::ZERO,
             stream_key: None,
             transition: None,
+            horizon_shown: None,
         }
     }
 
@@ -138,6 +144,14 @@ impl VolumeState {
     /// its meshes; the chunks it replaces are shown until it ends.
     pub fn level_change_in_progress(&self) -> bool {
         self.transition.is_some()
+    }
+
+    /// A horizon volume's layout whose chunks are shown now (while a level
+    /// change runs, the one it replaces), and which of its chunks are kept;
+    /// `None` until the first layout has loaded. The shown chunks are exactly
+    /// the layout's kept chunks.
+    pub fn horizon_shown(&self) -> Option<(&Layout, &HorizonKeep)> {
+        self.horizon_shown.as_ref().map(|(l, k)| (l, k))
     }
 
     /// The chunks that show something now, with their entities: every loaded

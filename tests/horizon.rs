@@ -55,52 +55,59 @@ fn spawn(app: &mut App, field: Arc<dyn Field>) -> Entity {
         .id()
 }
 
-/// Checks that the shown chunks cover the loaded region once: along x and z
-/// three top-level chunks, along y the kept rows, every level-0 chunk of it in
-/// exactly one shown chunk; and that every shown chunk's entity is the chunk.
+/// Checks that the shown chunks are exactly the kept chunks of the layout the
+/// volume shows (so no two overlap), that they cover every level-0 chunk of the
+/// rows within the view of that layout's camera exactly once, and that every
+/// shown chunk's entity is that chunk. Returns how many are shown.
 fn check_cover(app: &App, volume: Entity) -> Result<usize, String> {
     let state = app.world().get::<VolumeState>(volume).unwrap();
+    let (layout, keep) = state.horizon_shown().ok_or("nothing shown yet")?;
     let shown = state.shown_chunks();
-    let lo = shown
-        .iter()
-        .map(|(k, _)| k.lo())
-        .reduce(IVec3::min)
-        .unwrap();
-    let hi = shown
-        .iter()
-        .map(|(k, _)| k.hi())
-        .reduce(IVec3::max)
-        .unwrap();
-    let top = (VIEW / RES) as i32;
-    if hi.x - lo.x != 3 * top || hi.z - lo.z != 3 * top {
-        return Err(format!("the shown chunks span {lo}..{hi}"));
+    let mut have: Vec<ChunkKey> = shown.iter().map(|(k, _)| *k).collect();
+    let mut want: Vec<ChunkKey> = layout
+        .chunks()
+        .into_iter()
+        .filter(|k| keep.keeps(k))
+        .collect();
+    have.sort_by_key(|k| k.order());
+    want.sort_by_key(|k| k.order());
+    if have != want {
+        let extra: Vec<_> = have.iter().filter(|k| !want.contains(k)).collect();
+        let missing: Vec<_> = want.iter().filter(|k| !have.contains(k)).collect();
+        return Err(format!(
+            "shown but not kept {extra:?}; kept but not shown {missing:?}"
+        ));
     }
-    let (y0, y1) = (ROWS.0, ROWS.1 + 1);
-    let size = (hi - lo).with_y(y1 - y0);
-    let mut count = vec![0u8; (size.x * size.y * size.z) as usize];
     for (k, e) in &shown {
         match app.world().get::<KdChunk>(*e) {
             Some(c) if c.coord == k.coord && c.level == k.level => {}
             other => return Err(format!("chunk {k:?} shows on {e}: {other:?}")),
         }
-        let (a, b) = (k.lo(), k.hi());
+    }
+    // Count, per level-0 chunk of the rows, the shown chunks that hold it.
+    let lo = layout.lo().with_y(ROWS.0);
+    let hi = layout.hi().with_y(ROWS.1 + 1);
+    let size = hi - lo;
+    let mut count = vec![0u8; (size.x * size.y * size.z) as usize];
+    for (k, _) in &shown {
+        let (a, b) = (k.lo().max(lo), k.hi().min(hi));
         for z in a.z..b.z {
-            for y in a.y.max(y0)..b.y.min(y1) {
+            for y in a.y..b.y {
                 for x in a.x..b.x {
-                    let i = ((z - lo.z) * size.y + (y - y0)) * size.x + (x - lo.x);
+                    let i = ((z - lo.z) * size.y + (y - lo.y)) * size.x + (x - lo.x);
                     count[i as usize] += 1;
                 }
             }
         }
     }
-    if let Some(i) = count.iter().position(|&c| c != 1) {
+    for (i, &n) in count.iter().enumerate() {
         let i = i as i32;
-        let at = IVec3::new(i % size.x, (i / size.x) % size.y, i / (size.x * size.y));
-        return Err(format!(
-            "level-0 chunk {} is shown {} times",
-            at + lo.with_y(y0),
-            count[i as usize]
-        ));
+        let at = lo + IVec3::new(i % size.x, (i / size.x) % size.y, i / (size.x * size.y));
+        let centre = at.as_vec3().xz() + 0.5;
+        let inside = centre.distance(keep.camera.xz()) <= keep.reach;
+        if n > 1 || (inside && n != 1) {
+            return Err(format!("level-0 chunk {at} is shown {n} times"));
+        }
     }
     Ok(shown.len())
 }
