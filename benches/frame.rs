@@ -1,10 +1,20 @@
-//! Main-thread time of one frame with 1,000 chunks while the LOD camera moves: the
-//! plugin's systems (LOD, scheduling, polling, uploads), meshing tasks aside.
+//! Main-thread time of one frame while the LOD camera moves: the plugin's
+//! systems (LOD, streaming, scheduling, polling, uploads), meshing tasks aside.
+//!
+//! - `frame_1000_chunks`: a bounded volume of 1,000 chunks around a sphere.
+//! - `horizon_4096`: the terrain demo's field seen 4,096 cells out through chunk
+//!   levels (32-cell chunks, meshing on 2 task threads), the camera flying at 50
+//!   cells a second at 60 frames a second. Before measuring it prints the chunk
+//!   count, retained bytes and the time the plugin took to build the whole view
+//!   from scratch; after, the plugin's own main-thread time per frame (mean,
+//!   99th percentile, max) over every measured frame.
 //!
 //! `cargo bench -p bevy_kdcontour --bench frame`
 
+use bevy::app::{TaskPoolOptions, TaskPoolPlugin, TaskPoolThreadAssignmentPolicy};
 use bevy::prelude::*;
 use bevy_kdcontour::headless::{run_until_settled, HeadlessPlugins};
+use bevy_kdcontour::kdcontour::field::terrain::{Density, DensityParams};
 use bevy_kdcontour::prelude::*;
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::sync::Arc;
@@ -57,5 +67,103 @@ fn frame(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, frame);
+/// Two task threads for meshing (Bevy gives async compute a quarter of the
+/// cores, one on this 2-core machine).
+fn two_task_threads() -> TaskPoolPlugin {
+    TaskPoolPlugin {
+        task_pool_options: TaskPoolOptions {
+            async_compute: TaskPoolThreadAssignmentPolicy {
+                min_threads: 2,
+                max_threads: 2,
+                percent: 1.0,
+                on_thread_spawn: None,
+                on_thread_destroy: None,
+            },
+            ..default()
+        },
+    }
+}
+
+fn horizon(c: &mut Criterion) {
+    let mut app = App::new();
+    app.add_plugins((
+        HeadlessPlugins.set(two_task_threads()),
+        KdContourPlugins {
+            settings: KdContourSettings {
+                max_tasks_in_flight: 16,
+                lod: LodSettings {
+                    base: 0.02,
+                    near: 40.0,
+                    growth: 2.0,
+                    max: 4.0,
+                    ..Default::default()
+                },
+                ..Default::default()
+            },
+        },
+    ));
+    let field: Arc<dyn kdcontour::Field> = Arc::new(Density::new(DensityParams::demo(7)));
+    let volume = app
+        .world_mut()
+        .spawn(KdVolume::horizon(field, 32, 1.0, 4096).with_rows(-3, 1))
+        .id();
+    let cam = app
+        .world_mut()
+        .spawn((LodCamera, Transform::from_xyz(0.0, 40.0, 0.0)))
+        .id();
+    let t0 = std::time::Instant::now();
+    assert!(
+        run_until_settled(&mut app, volume, 1_000_000, Duration::from_millis(1)),
+        "the view did not settle"
+    );
+    let built = t0.elapsed();
+    let state = app.world().get::<VolumeState>(volume).unwrap();
+    let mut levels = std::collections::BTreeMap::<u32, usize>::new();
+    for (k, _) in state.shown_chunks() {
+        *levels.entry(k.level).or_default() += 1;
+    }
+    println!(
+        "horizon_4096: {} chunks {:?} (by level), {:.1} MB retained, whole view built in {:.1} s",
+        state.shown_chunks().len(),
+        levels,
+        state.world().retained_bytes() as f64 / 1e6,
+        built.as_secs_f64()
+    );
+    // 50 cells a second at 60 frames a second, along x and a little z.
+    let step = Vec3::new(50.0, 0.0, 10.0).normalize() * (50.0 / 60.0);
+    let mut frames: Vec<f64> = Vec::new();
+    let mut g = c.benchmark_group("horizon_4096");
+    g.sample_size(20).measurement_time(Duration::from_secs(20));
+    g.bench_function("camera_flying_50_cells_per_s", |b| {
+        b.iter_custom(|n| {
+            let mut total = Duration::ZERO;
+            for _ in 0..n {
+                app.world_mut()
+                    .get_mut::<Transform>(cam)
+                    .unwrap()
+                    .translation += step;
+                let t = std::time::Instant::now();
+                app.update();
+                total += t.elapsed();
+                frames.push(app.world().resource::<KdContourStats>().main_thread_ms);
+                // The rest of a 60 Hz frame, so the task threads mesh as they
+                // would in a game.
+                std::thread::sleep(Duration::from_micros(16_667).saturating_sub(t.elapsed()));
+            }
+            total
+        })
+    });
+    g.finish();
+    frames.sort_by(f64::total_cmp);
+    let mean = frames.iter().sum::<f64>() / frames.len().max(1) as f64;
+    let p99 = frames[(frames.len() * 99 / 100).min(frames.len() - 1)];
+    println!(
+        "horizon_4096: plugin main thread per frame over {} frames: mean {mean:.3} ms, \
+         p99 {p99:.3} ms, max {:.3} ms",
+        frames.len(),
+        frames.last().unwrap()
+    );
+}
+
+criterion_group!(benches, frame, horizon);
 criterion_main!(benches);

@@ -154,8 +154,9 @@ fn schedule_tasks(
     for mut state in &mut volumes {
         // During a level change nothing it waits for shows before every build
         // has landed, and a build re-queues its neighbours' extractions: build
-        // first, so no extraction is done twice.
-        let order = if state.level_change_in_progress() {
+        // first, so no extraction is done twice. (A first load shows chunks as
+        // they land, so it extracts first, as a one-level volume does.)
+        let order = if state.transition.as_ref().is_some_and(|t| t.hold) {
             [Work::Build, Work::Extract]
         } else {
             [Work::Extract, Work::Build]
