@@ -11,8 +11,11 @@
 //! is within `level0_cells / (2 * chunk_res)` of its own side, so level-0 chunks
 //! reach about `level0_cells` from the camera and every level about twice as far
 //! as the one below it, balanced 2:1. Chunks wholly outside the rows get no
-//! entity and are not built. The layout is recomputed when the camera enters
-//! another level-0 chunk.
+//! entity and are not built, and so are chunks farther than `view_cells` from
+//! the camera along x and z ([`HorizonKeep`]). The layout is recomputed when the
+//! camera enters another level-0 chunk, on a task thread (with every chunk's
+//! neighbourhood, [`PreparedLayout`]), so the main thread only does the
+//! bookkeeping.
 //!
 //! ## Changing levels without a hole or an overlap
 //! A new layout adds chunks, drops chunks, and changes the neighbourhood (so the
@@ -33,9 +36,11 @@
 use crate::state::{Transition, VolumeState};
 use crate::volume::KdVolume;
 use bevy::prelude::*;
+use bevy::tasks::{futures::check_ready, AsyncComputeTaskPool};
 use kdcontour::world::layout::MAX_LEVEL;
-use kdcontour::world::{ChunkKey, Layout};
+use kdcontour::world::{ChunkKey, Layout, PreparedLayout};
 use kdcontour::{LevelWorld, Settings};
+use std::collections::HashSet;
 
 /// Level-0 chunk rows `min_y..=max_y`.
 type Rows = (i32, i32);
@@ -88,17 +93,16 @@ fn top_level(chunk_res: u32, view_cells: u32) -> u32 {
     chunks.next_power_of_two().trailing_zeros()
 }
 
-/// The layout of a horizon volume with the camera at `camera` (local units):
-/// see the module docs.
+/// The layout of a horizon volume of `chunk_res`-cell chunks with the camera at
+/// `cam` (level-0 chunk units): see the module docs.
 pub fn horizon_layout(
-    world: &LevelWorld,
-    camera: Vec3,
+    chunk_res: u32,
+    cam: Vec3,
     (view_cells, level0_cells): (u32, u32),
     (min_y, max_y): Rows,
 ) -> kdcontour::Result<Layout> {
-    let top = top_level(world.chunk_res, view_cells);
+    let top = top_level(chunk_res, view_cells);
     let side = 1i32 << top;
-    let cam = world.to_chunk_units(camera);
     let held = (cam / side as f32).floor().as_ivec3();
     let lo = IVec3::new(
         (held.x - 1) * side,
@@ -110,7 +114,7 @@ pub fn horizon_layout(
         (max_y.div_euclid(side) + 1) * side,
         (held.z + 2) * side,
     );
-    let ring = level0_cells as f32 / (2 * world.chunk_res) as f32;
+    let ring = level0_cells as f32 / (2 * chunk_res) as f32;
     Layout::around(lo, hi, top, cam, ring)
 }
 
@@ -141,13 +145,9 @@ impl HorizonKeep {
     }
 }
 
-/// The camera in level-0 chunk units.
-fn key_camera(world: &LevelWorld, camera: Vec3) -> Vec3 {
-    world.to_chunk_units(camera)
-}
-
 /// Follows the camera: when it enters another level-0 chunk (and no level
-/// change is running), lays the volume out around it and starts the change.
+/// change is running), lays the volume out around it on a task thread, then
+/// starts the level change when that is ready.
 pub(crate) fn stream(
     commands: &mut Commands,
     volume: Entity,
@@ -160,11 +160,25 @@ pub(crate) fn stream(
     if state.transition.is_some() {
         return;
     }
+    if let Some(task) = state.pending_layout.as_mut() {
+        let Some(result) = check_ready(task) else {
+            return;
+        };
+        state.pending_layout = None;
+        let started = result.and_then(|(prepared, keep)| {
+            state.relayout(commands, volume, prepared, keep, threshold)
+        });
+        if let Err(e) = started {
+            error!("KdVolume {volume}: {e}");
+        }
+        return;
+    }
     let Some(world) = state.world().levels() else {
         return;
     };
+    let cam = world.to_chunk_units(camera);
     let key = (
-        key_camera(world, camera).floor().as_ivec3(),
+        cam.floor().as_ivec3(),
         ((cells.0 as u64) << 32) | cells.1 as u64,
         rows.0,
         rows.1,
@@ -172,23 +186,19 @@ pub(crate) fn stream(
     if state.stream_key == Some(key) {
         return;
     }
-    let layout = horizon_layout(world, camera, cells, rows);
+    let res = world.chunk_res;
+    state.stream_key = Some(key);
     let keep = HorizonKeep {
-        camera: key_camera(world, camera),
-        reach: cells.0 as f32 / world.chunk_res as f32,
+        camera: cam,
+        reach: cells.0 as f32 / res as f32,
         rows,
     };
-    state.stream_key = Some(key);
-    let layout = match layout {
-        Ok(l) => l,
-        Err(e) => {
-            error!("KdVolume {volume}: {e}");
-            return;
-        }
-    };
-    if let Err(e) = state.relayout(commands, volume, layout, keep, threshold) {
-        error!("KdVolume {volume}: {e}");
-    }
+    // Laying out and finding every chunk's neighbourhood costs milliseconds at
+    // a long view: off the main thread.
+    state.pending_layout = Some(AsyncComputeTaskPool::get().spawn(async move {
+        let layout = horizon_layout(res, cam, cells, rows)?;
+        Ok((PreparedLayout::new(layout)?, keep))
+    }));
 }
 
 impl VolumeState {
@@ -197,11 +207,11 @@ impl VolumeState {
         &mut self,
         commands: &mut Commands,
         volume: Entity,
-        layout: Layout,
+        prepared: PreparedLayout,
         keep: HorizonKeep,
         threshold: f32,
     ) -> kdcontour::Result<()> {
-        layout.check()?;
+        let layout = prepared.layout();
         let first = !self.slots.values().any(|s| s.shown);
         let dropped: Vec<ChunkKey> = self
             .slots
@@ -218,7 +228,7 @@ impl VolumeState {
             .world_mut()
             .levels_mut()
             .expect("horizon volumes have a level world");
-        let stale = world.set_layout(layout)?;
+        let stale = world.set_prepared(prepared)?;
         // A chunk the layout keeps but the view no longer does loses its tree,
         // so no seam is cut against it.
         for k in &dropped {
@@ -256,6 +266,16 @@ impl VolumeState {
             // Nothing changed (the camera moved within the same rings).
             return Ok(());
         }
+        let mut blocked = HashSet::new();
+        if !first {
+            let world = self.world().levels().expect("a level world");
+            for k in &touched {
+                blocked.insert(*k);
+                for seam in world.owned_seams(k) {
+                    blocked.extend(seam.chunks());
+                }
+            }
+        }
         for k in &touched {
             let slot = self.slots.get_mut(k).expect("kept");
             slot.held = !first;
@@ -267,6 +287,7 @@ impl VolumeState {
             waiting: touched,
             hold: !first,
             keep,
+            blocked,
             retired,
         });
         Ok(())

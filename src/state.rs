@@ -11,9 +11,9 @@ use crate::volume::{ChunkStatus, KdChunk};
 use bevy::prelude::*;
 use bevy::tasks::Task;
 use kdcontour::edit::{Brush, EditedField};
-use kdcontour::world::{ChunkKey, Layout};
+use kdcontour::world::{ChunkKey, Layout, PreparedLayout};
 use kdcontour::{Field, IndexedMesh};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::sync::Arc;
 
 /// Everything the plugin tracks for one loaded chunk.
@@ -71,6 +71,9 @@ pub(crate) struct Transition {
     pub hold: bool,
     /// Which chunks of the new layout are built and shown.
     pub keep: HorizonKeep,
+    /// The chunks whose re-extraction would re-extract a held chunk (those
+    /// that meet a seam a held chunk owns): their thresholds wait.
+    pub blocked: HashSet<ChunkKey>,
     /// The dropped chunks, still shown until the change is complete.
     pub retired: Vec<(ChunkKey, Entity)>,
 }
@@ -90,6 +93,8 @@ pub struct VolumeState {
     pub(crate) stream_key: Option<(IVec3, u64, i32, i32)>,
     /// The level change in progress, if any.
     pub(crate) transition: Option<Transition>,
+    /// A horizon volume's next layout, being prepared on a task thread.
+    pub(crate) pending_layout: Option<Task<kdcontour::Result<(PreparedLayout, HorizonKeep)>>>,
     /// A horizon volume's layout whose chunks are shown, and which of them.
     pub(crate) horizon_shown: Option<(Layout, HorizonKeep)>,
 }
@@ -105,6 +110,7 @@ impl VolumeState {
             focus: Vec3::ZERO,
             stream_key: None,
             transition: None,
+            pending_layout: None,
             horizon_shown: None,
         }
     }
@@ -137,7 +143,9 @@ impl VolumeState {
     /// No work queued, running or waiting for upload, and no level change in
     /// progress.
     pub fn is_settled(&self) -> bool {
-        self.transition.is_none() && self.slots.values().all(ChunkSlot::is_settled)
+        self.transition.is_none()
+            && self.pending_layout.is_none()
+            && self.slots.values().all(ChunkSlot::is_settled)
     }
 
     /// Whether a level change (a horizon volume's new layout) is waiting for
@@ -200,12 +208,9 @@ impl VolumeState {
 
     /// Whether a chunk whose mesh shows part of `c` is held for a level change.
     pub(crate) fn shows_held(&self, c: &ChunkKey) -> bool {
-        self.transition.is_some()
-            && self
-                .world
-                .seam_owners_touching(c)
-                .iter()
-                .any(|o| self.slots.get(o).is_some_and(|s| s.held))
+        self.transition
+            .as_ref()
+            .is_some_and(|t| t.blocked.contains(c))
     }
 
     /// Queues a new build of chunk `c`.

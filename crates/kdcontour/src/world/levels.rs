@@ -78,6 +78,36 @@ struct Slot {
     threshold: f32,
 }
 
+/// A layout with every chunk's neighbourhood worked out, checked and ready to
+/// install with [`LevelWorld::set_prepared`]: the costly part of a layout change,
+/// which can run on another thread.
+#[derive(Clone, Debug)]
+pub struct PreparedLayout {
+    layout: Layout,
+    neighbourhoods: HashMap<ChunkKey, Neighbourhood>,
+}
+
+impl PreparedLayout {
+    /// Checks `layout` ([`Layout::check`]) and works out its neighbourhoods.
+    pub fn new(layout: Layout) -> Result<Self> {
+        layout.check()?;
+        let neighbourhoods = layout
+            .chunks()
+            .into_iter()
+            .map(|k| (k, Neighbourhood::of(&layout, &k)))
+            .collect();
+        Ok(PreparedLayout {
+            layout,
+            neighbourhoods,
+        })
+    }
+
+    /// The layout.
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+}
+
 /// A bounded world of chunks at several levels (see the module docs).
 pub struct LevelWorld {
     /// World position of lattice corner (0, 0, 0).
@@ -89,6 +119,7 @@ pub struct LevelWorld {
     /// Build settings used for every chunk.
     pub settings: Settings,
     layout: Layout,
+    neighbourhoods: HashMap<ChunkKey, Neighbourhood>,
     default_threshold: f32,
     slots: HashMap<ChunkKey, Slot>,
 }
@@ -117,6 +148,7 @@ impl LevelWorld {
             chunk_res,
             settings,
             layout: Layout::uniform(IVec3::ZERO, IVec3::ONE, 0)?,
+            neighbourhoods: HashMap::new(),
             default_threshold: threshold,
             slots: HashMap::new(),
         };
@@ -134,7 +166,16 @@ impl LevelWorld {
     /// Returns the chunks to (re)build: the new ones and the kept ones whose
     /// neighbourhood changed (see [`LevelWorld::stale`]).
     pub fn set_layout(&mut self, layout: Layout) -> Result<Vec<ChunkKey>> {
-        layout.check()?;
+        self.set_prepared(PreparedLayout::new(layout)?)
+    }
+
+    /// [`LevelWorld::set_layout`] with the layout prepared beforehand (perhaps on
+    /// another thread): only the bookkeeping is left.
+    pub fn set_prepared(&mut self, prepared: PreparedLayout) -> Result<Vec<ChunkKey>> {
+        let PreparedLayout {
+            layout,
+            neighbourhoods,
+        } = prepared;
         let far =
             layout.lo().abs().max(layout.hi().abs()).max_element() as i64 * self.chunk_res as i64;
         if far >= 1 << 30 {
@@ -156,6 +197,7 @@ impl LevelWorld {
             });
         }
         self.layout = layout;
+        self.neighbourhoods = neighbourhoods;
         Ok(self.stale())
     }
 
@@ -167,7 +209,7 @@ impl LevelWorld {
             .into_iter()
             .filter(|k| {
                 let s = &self.slots[k];
-                s.tree.is_none() || s.built_for != Neighbourhood::of(&self.layout, k)
+                s.tree.is_none() || s.built_for != self.neighbourhoods[k]
             })
             .collect()
     }
@@ -214,7 +256,11 @@ impl LevelWorld {
             key: *k,
             grid: self.chunk_grid(k),
             res: self.chunk_res,
-            neighbourhood: Neighbourhood::of(&self.layout, k),
+            neighbourhood: self
+                .neighbourhoods
+                .get(k)
+                .cloned()
+                .unwrap_or_else(|| Neighbourhood::of(&self.layout, k)),
             settings: self.settings.clone(),
         }
     }

@@ -30,7 +30,7 @@ mod lod;
 
 pub use conform::{LevelBuild, Neighbourhood};
 pub use layout::{ChunkKey, Layout};
-pub use levels::{LevelSnapshot, LevelWorld, Seam};
+pub use levels::{LevelSnapshot, LevelWorld, PreparedLayout, Seam};
 pub use lod::Lod;
 
 use crate::error::{Error, Result};
