@@ -255,6 +255,12 @@ impl VolumeState {
                 self.add_slot(commands, volume, k, threshold);
             }
         }
+        // (Chunks the view leaves out are never built: no seam is cut against
+        // them, so only the kept ones count.)
+        let stale: Vec<ChunkKey> = stale
+            .into_iter()
+            .filter(|k| self.slots.contains_key(k))
+            .collect();
         for k in &stale {
             self.mark_build(k);
             touched.extend(self.world().seam_owners_touching(k));
