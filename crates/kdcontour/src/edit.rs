@@ -244,6 +244,31 @@ impl Field for EditedField {
         // keep the larger bound.
         self.base.lipschitz().map(|l| l.max(1.0))
     }
+
+    /// The base's bound, moved by the brushes: a brush whose reach (bounding
+    /// sphere grown by its blend) stays a distance `gap > 0` from the box is at
+    /// least `d = gap + blend` there, so adding it lowers the value to no less
+    /// than `min(lo, d) - blend / 4` (the polynomial smooth minimum is at most
+    /// `k / 4` below the plain one) and digging raises it to no more than
+    /// `max(hi, -d) + blend / 4`. `None` where a brush's reach meets the box.
+    fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        let (mut a, mut b) = self.base.bound(lo, hi)?;
+        for e in self.edits.iter() {
+            let (c, reach) = e.reach;
+            let gap = c.clamp(lo, hi).distance(c) - reach;
+            if !(gap > 0.0) {
+                return None;
+            }
+            let d = gap + e.blend;
+            match e.brush.op {
+                BrushOp::Add | BrushOp::SmoothAdd { .. } => a = a.min(d) - 0.25 * e.blend,
+                BrushOp::Subtract | BrushOp::SmoothSubtract { .. } => {
+                    b = b.max(-d) + 0.25 * e.blend
+                }
+            }
+        }
+        Some((a, b))
+    }
 }
 
 #[cfg(test)]

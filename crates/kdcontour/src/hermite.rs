@@ -89,6 +89,29 @@ const SKIP_BLOCK: u32 = 4;
 /// evaluating them (their sign is exact, their value is not).
 pub const FAR: f32 = f32::MAX;
 
+/// The samples of `grid` when [`Field::bound`] over its box grown by `margin`
+/// cells (plus one more, for the rounding of corner positions) proves one strict
+/// sign: every corner [`FAR`] with that sign, as [`sample`]'s skipped blocks, and
+/// no evaluation. `None` when the bound cannot tell; the grid is checked as
+/// [`sample`] checks it either way.
+pub fn one_sign(
+    field: &dyn Field,
+    grid: &Grid,
+    margin: u32,
+    settings: &Settings,
+) -> Result<Option<Vec<f32>>> {
+    check_grid(grid, settings)?;
+    let m = (margin + 1) as f32 * grid.cell_size;
+    let lo = grid.corner_pos(UVec3::ZERO) - m;
+    let hi = grid.corner_pos(grid.cells) + m;
+    let sign = match field.bound(lo, hi) {
+        Some((a, _)) if a > 0.0 => FAR,
+        Some((_, b)) if b < 0.0 => -FAR,
+        _ => return Ok(None),
+    };
+    Ok(Some(vec![sign; grid.corner_count() as usize]))
+}
+
 /// Samples `field` at every corner of `grid`, in parallel over z slabs.
 ///
 /// With a Lipschitz bound `L`, the field is first evaluated at the centre of every

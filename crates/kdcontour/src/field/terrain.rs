@@ -2,7 +2,7 @@
 //! overhangs and caves. Y is up (Bevy's convention).
 
 use super::Field;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use noise::{Fbm, MultiFractal, NoiseFn, Perlin};
 use serde::{Deserialize, Serialize};
 
@@ -61,12 +61,28 @@ impl DensityParams {
             caves: Some(CaveParams {
                 frequency: 0.018,
                 radius: 0.11,
+                depth: Some(DEMO_CAVE_DEPTH),
             }),
         }
     }
 }
 
+/// How deep below the surface the demo's caves reach (world units), before they
+/// close over the next `1.5 * radius / frequency` (about 9): tunnels open in hill
+/// sides and under the valleys, and the rock below them is provably solid, so a
+/// far horizon does not mesh kilometres of caves no one can see.
+pub const DEMO_CAVE_DEPTH: f32 = 24.0;
+
 /// Tunnels where two independent noises are both near zero.
+///
+/// The tunnel term is `t = (radius - |(n1, n2)|) / frequency` (world units, at
+/// most `radius / frequency`), and the terrain is air where `t` or the surface
+/// term says so. With a `depth`, tunnels exist only from the surface down to
+/// about that depth: at a point `d` world units below the surface (`d` is minus
+/// the surface term), `t` is lowered by `ramp(d - depth)`, where `ramp` is 0 for
+/// negative arguments, `x^2 / (2w)` up to `w = radius / frequency` and `x - w/2`
+/// beyond (continuous with its slope). Tunnels narrow from `depth` on and are
+/// closed everywhere below `depth + 1.5 w`; the field stays continuous.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CaveParams {
@@ -74,6 +90,29 @@ pub struct CaveParams {
     pub frequency: f32,
     /// Tunnel radius, in noise units (0.05 to 0.3 is sensible).
     pub radius: f32,
+    /// Depth below the surface (world units, >= 0) where tunnels start to close;
+    /// `None` (the default): caves at every depth.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth: Option<f32>,
+}
+
+impl CaveParams {
+    /// How much the tunnel term is lowered `below` world units under the surface
+    /// (0 everywhere without a depth band; never decreasing in `below`).
+    pub fn fade(&self, below: f64) -> f64 {
+        let Some(depth) = self.depth else {
+            return 0.0;
+        };
+        let w = self.radius as f64 / self.frequency as f64;
+        let x = below - depth as f64;
+        if x <= 0.0 {
+            0.0
+        } else if x < w {
+            x * x / (2.0 * w)
+        } else {
+            x - 0.5 * w
+        }
+    }
 }
 
 fn default_octaves() -> u32 {
@@ -121,18 +160,56 @@ impl Heightfield {
     pub fn height(&self, x: f32, z: f32) -> f32 {
         self.params.base + self.params.amplitude * self.noise.get([x as f64, z as f64]) as f32
     }
+
+    /// The terrain height at `(x, z)` in f64 (for differences far from the origin).
+    fn height64(&self, x: f64, z: f64) -> f64 {
+        self.params.base as f64 + self.params.amplitude as f64 * self.noise.get([x, z])
+    }
 }
+
+/// Bounds `lo` and `hi` of a value computed in f32, widened by far more than the
+/// f32 rounding of the few operations that computed it from terms of magnitude up
+/// to `scale`.
+fn widen(lo: f64, hi: f64, scale: f64) -> (f32, f32) {
+    let slack = 1e-5 * (scale + lo.abs() + hi.abs()) + 1e-6;
+    ((lo - slack) as f32, (hi + slack) as f32)
+}
+
+/// The largest magnitude [`Fbm`]`<`[`Perlin`]`>` returns: 1.
+///
+/// Proof from the `noise` 0.9 source: `perlin_3d` and `perlin_2d` end in
+/// `result.clamp(-1.0, 1.0)`, so every octave's signal `s_i` is in `[-1, 1]`.
+/// `Fbm::get` returns `scale * sum_{i=0}^{n-1} p^(i+1) s_i` with
+/// `scale = 1 / sum_{i=1}^{n} p^i` (`calc_scale_factor`), a weighted mean of the
+/// `s_i` with positive weights summing to 1 (here `p = 0.5`; the sum of `n` f64
+/// terms errs by a few ulps, which [`widen`] covers). So `|fbm| <= 1` at every
+/// point, for every seed, octave count and frequency.
+const FBM_MAX: f64 = 1.0;
 
 impl Field for Heightfield {
     fn value(&self, p: Vec3) -> f32 {
         p.y - self.height(p.x, p.z)
     }
 
+    /// Central differences of the height in f64 with a step of 1e-3 of the
+    /// first octave's period: as exact 65,536 units out as at the origin.
     fn gradient(&self, p: Vec3) -> Vec3 {
-        let h = 1e-3 / self.params.frequency;
-        let dx = (self.height(p.x + h, p.z) - self.height(p.x - h, p.z)) / (2.0 * h);
-        let dz = (self.height(p.x, p.z + h) - self.height(p.x, p.z - h)) / (2.0 * h);
-        Vec3::new(-dx, 1.0, -dz)
+        let h = 1e-3 / self.params.frequency as f64;
+        let (x, z) = (p.x as f64, p.z as f64);
+        let dx = (self.height64(x + h, z) - self.height64(x - h, z)) / (2.0 * h);
+        let dz = (self.height64(x, z + h) - self.height64(x, z - h)) / (2.0 * h);
+        Vec3::new(-dx as f32, 1.0, -dz as f32)
+    }
+
+    /// `y - height` with the height within `base +- amplitude` ([`FBM_MAX`]).
+    fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        let (base, amp) = (self.params.base as f64, self.params.amplitude as f64);
+        let scale = lo.y.abs().max(hi.y.abs()) as f64 + base.abs() + amp;
+        Some(widen(
+            lo.y as f64 - base - amp * FBM_MAX,
+            hi.y as f64 - base + amp * FBM_MAX,
+            scale,
+        ))
     }
 
     fn sample_grid(
@@ -187,21 +264,92 @@ impl Density {
     }
 }
 
-impl Field for Density {
-    fn value(&self, p: Vec3) -> f32 {
-        let q = [p.x as f64, p.y as f64, p.z as f64];
-        let solid = p.y - self.params.base - self.params.amplitude * self.noise.get(q) as f32;
+impl Density {
+    /// The two cave noises at `q`, if there are caves.
+    fn cave_noise(&self, q: [f64; 3]) -> Option<(&CaveParams, f64, f64)> {
         match (&self.caves, &self.params.caves) {
             (Some((a, b)), Some(c)) => {
                 let f = c.frequency as f64;
                 let qc = [q[0] * f, q[1] * f, q[2] * f];
-                let n1 = a.get(qc) as f32;
-                let n2 = b.get(qc) as f32;
-                // Positive inside a tunnel (air); the terrain is air where either is.
-                let tunnel = (c.radius - (n1 * n1 + n2 * n2).sqrt()) / c.frequency;
-                solid.max(tunnel)
+                Some((c, a.get(qc), b.get(qc)))
             }
-            _ => solid,
+            _ => None,
+        }
+    }
+
+    /// The value at `q` computed in f64 throughout (for differences far out).
+    fn value64(&self, q: DVec3) -> f64 {
+        let q = q.to_array();
+        let solid =
+            q[1] - self.params.base as f64 - self.params.amplitude as f64 * self.noise.get(q);
+        match self.cave_noise(q) {
+            Some((c, n1, n2)) => {
+                let tunnel = (c.radius as f64 - n1.hypot(n2)) / c.frequency as f64;
+                solid.max(tunnel - c.fade(-solid))
+            }
+            None => solid,
         }
     }
 }
+
+impl Field for Density {
+    fn value(&self, p: Vec3) -> f32 {
+        let q = [p.x as f64, p.y as f64, p.z as f64];
+        let solid = p.y - self.params.base - self.params.amplitude * self.noise.get(q) as f32;
+        match self.cave_noise(q) {
+            Some((c, n1, n2)) => {
+                let (n1, n2) = (n1 as f32, n2 as f32);
+                // Positive inside a tunnel (air); the terrain is air where either is.
+                let tunnel = (c.radius - (n1 * n1 + n2 * n2).sqrt()) / c.frequency;
+                // Without a depth band the fade is 0 and `tunnel - 0.0` is `tunnel`.
+                solid.max(tunnel - c.fade(-solid as f64) as f32)
+            }
+            None => solid,
+        }
+    }
+
+    /// Central differences in f64 with a step of 1e-3 of the finest first-octave
+    /// period (surface or caves): as exact 65,536 units out as at the origin.
+    fn gradient(&self, p: Vec3) -> Vec3 {
+        let mut f = self.params.frequency;
+        if let Some(c) = &self.params.caves {
+            f = f.max(c.frequency);
+        }
+        let h = 1e-3 / f as f64;
+        let q = p.as_dvec3();
+        let mut g = Vec3::ZERO;
+        for a in 0..3 {
+            let e = DVec3::AXES[a] * h;
+            g[a] = ((self.value64(q + e) - self.value64(q - e)) / (2.0 * h)) as f32;
+        }
+        g
+    }
+
+    /// The surface term `y - base - amplitude * fbm` is bounded through the
+    /// box's y range and `|fbm| <= 1` ([`FBM_MAX`]); the tunnel term
+    /// `(radius - |(n1, n2)|) / frequency` lies in
+    /// `[(radius - sqrt 2) / frequency, radius / frequency]` (each Perlin noise is
+    /// clamped to `[-1, 1]`), lowered by the depth fade, which never decreases with
+    /// depth: at least `fade(-surface_hi)`, at most `fade(-surface_lo)`. The value
+    /// is the larger term, so its bounds are the larger bounds.
+    fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        let (base, amp) = (self.params.base as f64, self.params.amplitude as f64);
+        let s_lo = lo.y as f64 - base - amp * FBM_MAX;
+        let s_hi = hi.y as f64 - base + amp * FBM_MAX;
+        let mut scale = lo.y.abs().max(hi.y.abs()) as f64 + base.abs() + amp;
+        let (v_lo, v_hi) = match &self.params.caves {
+            None => (s_lo, s_hi),
+            Some(c) => {
+                let (r, f) = (c.radius as f64, c.frequency as f64);
+                scale += (r + std::f64::consts::SQRT_2) / f;
+                let t_lo = (r - std::f64::consts::SQRT_2) / f - c.fade(-s_lo);
+                let t_hi = r / f - c.fade(-s_hi);
+                (s_lo.max(t_lo), s_hi.max(t_hi))
+            }
+        };
+        Some(widen(v_lo, v_hi, scale))
+    }
+}
+
+#[cfg(test)]
+mod tests;

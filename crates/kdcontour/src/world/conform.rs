@@ -46,6 +46,9 @@ pub struct LevelBuild {
     pub settings: Settings,
 }
 
+/// Fine cells past its grid that conforming reads ([`LevelBuild::conformed`]).
+const CONFORM_MARGIN: u32 = 3;
+
 /// The smallest negative sample: inside, and the root search on an edge from it
 /// starts at it and moves along the field.
 const TINY: f32 = -f32::MIN_POSITIVE;
@@ -68,11 +71,20 @@ impl LevelBuild {
 
     /// The chunk's samples: the field, conformed on the boundaries of coarser
     /// neighbours, with the halo across level faces forced inside.
+    ///
+    /// When the field's bound over every point the chunk reads (its grid and the
+    /// three cells conforming reads past it) proves one strict sign, nothing is
+    /// sampled ([`hermite::one_sign`]): conforming keeps a one-signed field's
+    /// signs, so the samples have the signs sampling would give, and the tree is
+    /// the one sampling would build (no surface).
     pub fn samples(&self, field: &dyn Field) -> Result<Vec<f32>> {
-        let mut values = if self.neighbourhood.coarser.is_empty() {
-            hermite::sample(field, &self.grid, &self.settings)?
-        } else {
-            self.conformed(field)?
+        let skipped = hermite::one_sign(field, &self.grid, CONFORM_MARGIN, &self.settings)?;
+        let mut values = match skipped {
+            Some(v) => v,
+            None if self.neighbourhood.coarser.is_empty() => {
+                hermite::sample(field, &self.grid, &self.settings)?
+            }
+            None => self.conformed(field)?,
         };
         self.force_halo(&mut values);
         Ok(values)
@@ -92,8 +104,8 @@ impl LevelBuild {
         // Reads reach three fine cells past the grid: a face centre's midpoints,
         // and the coarse faces around their coarse edges.
         let wide = Grid {
-            cells: g.cells + UVec3::splat(6),
-            offset: g.offset - IVec3::splat(3),
+            cells: g.cells + UVec3::splat(2 * CONFORM_MARGIN),
+            offset: g.offset - IVec3::splat(CONFORM_MARGIN as i32),
             ..*g
         };
         let wv = hermite::sample(field, &wide, &self.settings)?;

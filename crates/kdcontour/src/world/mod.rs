@@ -571,7 +571,13 @@ fn build_chunk_tree(
     settings: &Settings,
 ) -> Result<KdTree> {
     settings.run(|| {
-        let h = Hermite::from_field(field, grid, settings)?;
+        // A chunk the field's bound proves one-signed has no surface: its tree is
+        // built from the signs alone, as sampling would have built it.
+        let values = match crate::hermite::one_sign(field, grid, 0, settings)? {
+            Some(v) => v,
+            None => crate::hermite::sample(field, grid, settings)?,
+        };
+        let h = Hermite::new(field, grid, &values, settings)?;
         let r = res as u16;
         Ok(kdtree::build_in(
             &h,
