@@ -23,6 +23,7 @@ use glam::{IVec3, Vec3};
 use kdcontour::field::terrain::{Density, DensityParams};
 use kdcontour::world::{ChunkKey, Layout, LevelWorld};
 use kdcontour::{hermite, validate, Field, MeshReport, Settings};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 /// Cells per chunk side (the terrain demo's default).
@@ -60,6 +61,8 @@ struct View {
     top: u32,
     levels: Vec<Level>,
     build_s: f64,
+    /// Processor time of the build, all threads (Linux only).
+    build_cpu_s: Option<f64>,
     contour_s: f64,
     report: MeshReport,
     /// The region's world box (min, max).
@@ -99,6 +102,7 @@ fn view(distance: u32, ring: f32, field: &dyn Field) -> Result<View, String> {
     let top = (distance / CHUNK_RES).trailing_zeros();
     let keys = world.chunks();
     let mut levels: Vec<Level> = (0..=top).map(|_| Level::default()).collect();
+    let cpu0 = cpu_seconds().unwrap_or(0.0);
     let start = Instant::now();
     for (l, level) in levels.iter_mut().enumerate() {
         let mine: Vec<ChunkKey> = keys
@@ -139,6 +143,7 @@ fn view(distance: u32, ring: f32, field: &dyn Field) -> Result<View, String> {
             .sum();
     }
     let build_s = start.elapsed().as_secs_f64();
+    let build_cpu_s = cpu_seconds().map(|c| c - cpu0);
     let t = Instant::now();
     let mesh = world.extract_all();
     let contour_s = t.elapsed().as_secs_f64();
@@ -146,6 +151,7 @@ fn view(distance: u32, ring: f32, field: &dyn Field) -> Result<View, String> {
         top,
         levels,
         build_s,
+        build_cpu_s,
         contour_s,
         report: validate(&mesh, None),
         region: region(&world),
@@ -180,6 +186,15 @@ impl Capped<'_> {
 impl Field for Capped<'_> {
     fn value(&self, p: Vec3) -> f32 {
         self.field.value(p).max(self.wall(p))
+    }
+
+    /// The larger of the field's bound and the wall's (distance-like, slope at
+    /// most 1: its value at the box's centre plus or minus the half-diagonal).
+    fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        let (a, b) = self.field.bound(lo, hi)?;
+        let w = self.wall((lo + hi) * 0.5);
+        let r = (hi - lo).length() * 0.5 * 1.001;
+        Some((a.max(w - r), b.max(w + r)))
     }
 
     fn gradient(&self, p: Vec3) -> Vec3 {
@@ -270,19 +285,87 @@ fn print_stage_times(field: &dyn Field) {
         };
         let mut build = world.chunk_build(&k);
         build.settings.threads = 1;
+        let counted = Counting::new(field);
         let t = Instant::now();
-        let samples = kdcontour::hermite::sample(field, &build.grid, &build.settings);
+        let samples = build.samples(&counted).expect("the chunk samples");
         let sample_ms = t.elapsed().as_secs_f64() * 1e3;
+        let sampled = counted.take();
         let t = Instant::now();
-        let tree = build.run(field).expect("the chunk builds");
+        let tree = build.run(&counted).expect("the chunk builds");
         let build_ms = t.elapsed().as_secs_f64() * 1e3;
+        let (values, gradients) = counted.take();
         println!(
-            "one level-{level} chunk on one thread: sampling {} corners {sample_ms:.1} ms of a \
-             {build_ms:.1} ms build, {} KB retained",
-            samples.map_or(0, |v| v.len()),
+            "one level-{level} chunk{} on one thread: sampling {} corners ({} evaluations) \
+             {sample_ms:.1} ms of a {build_ms:.1} ms build ({} evaluations, {} gradients, {} \
+             crossings), {} KB retained",
+            if build.neighbourhood.coarser.is_empty() {
+                ""
+            } else {
+                " (conforming)"
+            },
+            samples.len(),
+            sampled.0,
+            values,
+            gradients,
+            tree.stats.crossings,
             tree.retained_bytes() >> 10
         );
     }
+}
+
+/// A field that counts its evaluations.
+struct Counting<'a> {
+    field: &'a dyn Field,
+    values: AtomicUsize,
+    gradients: AtomicUsize,
+}
+
+impl<'a> Counting<'a> {
+    fn new(field: &'a dyn Field) -> Self {
+        Counting {
+            field,
+            values: AtomicUsize::new(0),
+            gradients: AtomicUsize::new(0),
+        }
+    }
+
+    /// The counts of values and gradients so far; starts counting again.
+    fn take(&self) -> (usize, usize) {
+        (
+            self.values.swap(0, Ordering::Relaxed),
+            self.gradients.swap(0, Ordering::Relaxed),
+        )
+    }
+}
+
+impl Field for Counting<'_> {
+    fn value(&self, p: Vec3) -> f32 {
+        self.values.fetch_add(1, Ordering::Relaxed);
+        self.field.value(p)
+    }
+
+    fn gradient(&self, p: Vec3) -> Vec3 {
+        self.gradients.fetch_add(1, Ordering::Relaxed);
+        self.field.gradient(p)
+    }
+
+    fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        self.field.bound(lo, hi)
+    }
+}
+
+/// Processor seconds this process has used (user and system, all threads), from
+/// `/proc/self/stat`; `None` off Linux. On a machine shared with other work the
+/// wall time of a build grows with the load, its processor time does not: on
+/// `THREADS` idle cores the build would take about processor time / `THREADS`.
+fn cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the command name (which is in parentheses): utime, stime are
+    // the 12th and 13th of them, in clock ticks (100 per second on Linux).
+    let rest = stat.rsplit_once(')')?.1;
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
 }
 
 fn print_view(v: &View) {
@@ -313,6 +396,13 @@ fn print_view(v: &View) {
         v.contour_s,
         r.triangles
     );
+    if let Some(cpu) = v.build_cpu_s {
+        println!(
+            "  build processor time {cpu:.2} s on {THREADS} threads: about {:.2} s on \
+             {THREADS} idle cores",
+            cpu / THREADS as f64
+        );
+    }
     println!(
         "  open mesh: {} edges on 3+ triangles, {} misoriented, {} hole edges (the \
          region's sides), {} vertices with 2+ fans",

@@ -2,6 +2,19 @@ use super::*;
 use crate::field::{gradient_step, FnField, GRADIENT_STEP};
 use crate::world::layout::Rng;
 
+/// The value at `q` computed in f64 throughout: a reference for gradients.
+fn value64(d: &Density, q: DVec3) -> f64 {
+    let q = q.to_array();
+    let solid = q[1] - d.params.base as f64 - d.params.amplitude as f64 * d.noise.get(q);
+    match d.cave_noise(q) {
+        Some((c, n1, n2)) => {
+            let tunnel = (c.radius as f64 - n1.hypot(n2)) / c.frequency as f64;
+            solid.max(tunnel - c.fade(-solid))
+        }
+        None => solid,
+    }
+}
+
 /// A point of the box `[lo, hi]` drawn from `rng`.
 fn point_in(rng: &mut Rng, lo: Vec3, hi: Vec3) -> Vec3 {
     let t = Vec3::new(rng.unit() as f32, rng.unit() as f32, rng.unit() as f32);
@@ -44,6 +57,7 @@ fn terrain_gradients_match_f64_differences_far_out() {
     });
     // References from the noise crate in f64, with their own step.
     let d_noise = fbm(3, 0.011, 5);
+    // (The density's gradient is analytic, the height field's by f64 differences.)
     let d_ref = |q: DVec3| q.y - 22.0 * d_noise.get(q.to_array());
     let h_ref = |q: DVec3| q.y - 22.0 * d_noise.get([q.x, q.z]);
     let h = 0.01;
@@ -219,4 +233,123 @@ fn cave_depth_is_optional_in_scene_files() {
     let bad = r#"{"type":"density","amplitude":1,"frequency":1,"caves":{"frequency":1,"radius":0.1,"depth":-1}}"#;
     let err = crate::field::csg::CsgNode::from_json(bad).unwrap_err();
     assert!(err.to_string().contains("caves.depth"), "{err}");
+}
+
+#[test]
+fn skipping_the_cave_noise_changes_no_value() {
+    // The full formula, cave noises always evaluated.
+    let full = |d: &Density, p: Vec3| {
+        let q = [p.x as f64, p.y as f64, p.z as f64];
+        let solid = p.y - d.params.base - d.params.amplitude * d.noise.get(q) as f32;
+        let (c, n1, n2) = d.cave_noise(q).unwrap();
+        let (n1, n2) = (n1 as f32, n2 as f32);
+        let tunnel = (c.radius - (n1 * n1 + n2 * n2).sqrt()) / c.frequency;
+        solid.max(tunnel - c.fade(-solid as f64) as f32)
+    };
+    let banded = DensityParams::demo(4);
+    let everywhere = DensityParams {
+        caves: Some(CaveParams {
+            depth: None,
+            ..banded.caves.clone().unwrap()
+        }),
+        ..banded.clone()
+    };
+    let mut rng = Rng(8);
+    for params in [banded, everywhere] {
+        let d = Density::new(params);
+        let mut tunnels = 0;
+        for _ in 0..20000 {
+            let p = point_in(
+                &mut rng,
+                Vec3::new(-400.0, -100.0, -400.0),
+                Vec3::splat(400.0),
+            );
+            let v = d.value(p);
+            assert_eq!(v.to_bits(), full(&d, p).to_bits(), "at {p}");
+            tunnels += (v > p.y + 22.0) as usize;
+        }
+        assert!(tunnels > 0, "no point in a tunnel");
+    }
+}
+
+#[test]
+fn analytic_density_gradients_match_f64_differences() {
+    let mut rng = Rng(21);
+    let h = 1e-4;
+    for params in [DensityParams::demo(2), DensityParams::demo(31)] {
+        let d = Density::new(params);
+        let (mut checked, mut in_tunnels) = (0, 0);
+        for _ in 0..3000 {
+            let p = point_in(
+                &mut rng,
+                Vec3::new(-300.0, -60.0, -300.0),
+                Vec3::new(300.0, 25.0, 300.0),
+            );
+            let q = p.as_dvec3();
+            // Away from the seam where the two terms swap (the gradient jumps).
+            let c = d.params.caves.as_ref().unwrap();
+            let q3 = q.to_array();
+            let solid = q.y - d.params.amplitude as f64 * d.noise.get(q3);
+            let (_, n1, n2) = d.cave_noise(q3).unwrap();
+            let tunnel = (c.radius as f64 - n1.hypot(n2)) / c.frequency as f64 - c.fade(-solid);
+            if (solid - tunnel).abs() < 0.05 {
+                continue;
+            }
+            let r = DVec3::from_array([0, 1, 2].map(|a| {
+                let e = DVec3::AXES[a] * h;
+                (value64(&d, q + e) - value64(&d, q - e)) / (2.0 * h)
+            }));
+            let g = d.gradient(p).as_dvec3();
+            assert!(
+                (g - r).length() < 1e-3 * r.length().max(1.0),
+                "at {p}: {g} against {r}"
+            );
+            checked += 1;
+            in_tunnels += (tunnel > solid) as usize;
+        }
+        assert!(
+            checked > 2500 && in_tunnels > 10,
+            "{checked} points, {in_tunnels} in tunnels"
+        );
+    }
+    // The fBm alone, value and gradient, against the noise crate.
+    let (n, ng) = (fbm(5, 0.3, 6), perlin::Fbm3::new(5, 0.3, 6));
+    for _ in 0..2000 {
+        let q = DVec3::from_array([0, 1, 2].map(|_| (rng.unit() - 0.5) * 100.0));
+        let (v, g) = ng.get_grad(q);
+        assert!((v - n.get(q.to_array())).abs() < 1e-12);
+        let r = DVec3::from_array([0, 1, 2].map(|a| {
+            let e = DVec3::AXES[a] * h;
+            (n.get((q + e).to_array()) - n.get((q - e).to_array())) / (2.0 * h)
+        }));
+        assert!(
+            (g - r).length() < 1e-4 * r.length().max(1.0),
+            "at {q}: {g} against {r}"
+        );
+    }
+}
+
+#[test]
+fn the_fast_noise_is_the_noise_crates_bit_for_bit() {
+    let mut rng = Rng(13);
+    for (seed, frequency, octaves) in [(0, 0.011, 5), (7, 1.8, 4), (123_456, 0.37, 8)] {
+        let (slow, fast) = (
+            fbm(seed, frequency, octaves),
+            perlin::Fbm3::new(seed, frequency, octaves),
+        );
+        let (p_slow, p_fast) = (Perlin::new(seed), perlin::Perlin3::new(seed));
+        for i in 0..20000 {
+            // Random points, and lattice points (integers, negative ones too).
+            let mut q = [0, 1, 2].map(|_| (rng.unit() - 0.5) * 2000.0);
+            if i % 4 == 0 {
+                q = q.map(|x| (x * 0.01).round());
+            }
+            assert_eq!(slow.get(q).to_bits(), fast.get(q).to_bits(), "fbm at {q:?}");
+            assert_eq!(
+                p_slow.get(q).to_bits(),
+                p_fast.get(q).to_bits(),
+                "perlin at {q:?}"
+            );
+        }
+    }
 }
