@@ -54,6 +54,27 @@ const GRADS: [[f64; 3]; 16] = [
     [0.0, -1.0, -1.0],
 ];
 
+/// `perlin_3d`'s gradient terms by the hash's low four bits: `sa * p[a] + sb * p[b]`
+/// (`0 | 12 => x + y`, `1 | 13 => -x + y`, ..., `11 | 15 => -y - z`).
+const TERMS: [(usize, f64, usize, f64); 16] = [
+    (0, 1.0, 1, 1.0),
+    (0, -1.0, 1, 1.0),
+    (0, 1.0, 1, -1.0),
+    (0, -1.0, 1, -1.0),
+    (0, 1.0, 2, 1.0),
+    (0, -1.0, 2, 1.0),
+    (0, 1.0, 2, -1.0),
+    (0, -1.0, 2, -1.0),
+    (1, 1.0, 2, 1.0),
+    (1, -1.0, 2, 1.0),
+    (1, 1.0, 2, -1.0),
+    (1, -1.0, 2, -1.0),
+    (0, 1.0, 1, 1.0),
+    (0, -1.0, 1, 1.0),
+    (1, -1.0, 2, 1.0),
+    (1, -1.0, 2, -1.0),
+];
+
 /// `perlin_3d`'s scale, `2 / sqrt 3`.
 const SCALE_FACTOR: f64 = 1.154_700_538_379_251_5;
 
@@ -87,21 +108,12 @@ impl Perlin3 {
         let c = [lattice(q[0]), lattice(q[1]), lattice(q[2])];
         let d = [q[0] - c[0] as f64, q[1] - c[1] as f64, q[2] - c[2] as f64];
         let g = |ox: isize, oy: isize, oz: isize| {
-            let (x, y, z) = (d[0] - ox as f64, d[1] - oy as f64, d[2] - oz as f64);
-            match self.hash(c[0] + ox, c[1] + oy, c[2] + oz) & 0b1111 {
-                0 | 12 => x + y,
-                1 | 13 => -x + y,
-                2 => x - y,
-                3 => -x - y,
-                4 => x + z,
-                5 => -x + z,
-                6 => x - z,
-                7 => -x - z,
-                8 => y + z,
-                9 | 14 => -y + z,
-                10 => y - z,
-                _ => -y - z,
-            }
+            let p = [d[0] - ox as f64, d[1] - oy as f64, d[2] - oz as f64];
+            // `perlin_3d` matches on the hash; the table picks the same terms
+            // without a branch (`-a` is `-1 * a`, and `a - b` is `a + -b`, bit for
+            // bit).
+            let (a, sa, b, sb) = TERMS[self.hash(c[0] + ox, c[1] + oy, c[2] + oz) & 0b1111];
+            sa * p[a] + sb * p[b]
         };
         let (g000, g100, g010, g110) = (g(0, 0, 0), g(1, 0, 0), g(0, 1, 0), g(1, 1, 0));
         let (g001, g101, g011, g111) = (g(0, 0, 1), g(1, 0, 1), g(0, 1, 1), g(1, 1, 1));
@@ -116,42 +128,45 @@ impl Perlin3 {
 
     /// Value and gradient at `q` (noise units).
     pub(super) fn get_grad(&self, q: DVec3) -> (f64, DVec3) {
-        // `floor_to_isize` of `noise` 0.9: truncation, minus one at and below 0.
-        let corner = q
-            .to_array()
-            .map(|x| if x <= 0.0 { x as isize - 1 } else { x as isize });
-        let d = q - DVec3::from_array(corner.map(|c| c as f64));
-        let s = d.map(|t| {
-            let t = t.clamp(0.0, 1.0);
-            t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
-        });
+        let c = [lattice(q.x), lattice(q.y), lattice(q.z)];
+        let d = [q.x - c[0] as f64, q.y - c[1] as f64, q.z - c[2] as f64];
+        let s = d.map(quintic);
         let ds = d.map(|t| {
             let t = t.clamp(0.0, 1.0);
             30.0 * t * t * (t - 1.0) * (t - 1.0)
         });
-        let (mut v, mut g) = (0.0, DVec3::ZERO);
+        let (mut v, mut g) = (0.0, [0.0f64; 3]);
         for i in 0..8usize {
             let o = [i & 1, (i >> 1) & 1, (i >> 2) & 1];
-            let hash = self.hash(
-                corner[0] + o[0] as isize,
-                corner[1] + o[1] as isize,
-                corner[2] + o[2] as isize,
-            );
-            let gv = DVec3::from_array(GRADS[hash & 15]);
-            let n = gv.dot(d - DVec3::from_array(o.map(|b| b as f64)));
-            // Blend weights of this corner and their derivatives.
-            let w = DVec3::from_array([0, 1, 2].map(|a| if o[a] == 1 { s[a] } else { 1.0 - s[a] }));
-            let dw = DVec3::from_array([0, 1, 2].map(|a| if o[a] == 1 { ds[a] } else { -ds[a] }));
-            let weight = w.x * w.y * w.z;
+            let k = GRADS[self.hash(
+                c[0] + o[0] as isize,
+                c[1] + o[1] as isize,
+                c[2] + o[2] as isize,
+            ) & 15];
+            let p = [d[0] - o[0] as f64, d[1] - o[1] as f64, d[2] - o[2] as f64];
+            let n = k[0] * p[0] + k[1] * p[1] + k[2] * p[2];
+            // Blend weights of this corner along each axis, and their slopes.
+            let mut w = [0.0; 3];
+            let mut dw = [0.0; 3];
+            for a in 0..3 {
+                (w[a], dw[a]) = if o[a] == 1 {
+                    (s[a], ds[a])
+                } else {
+                    (1.0 - s[a], -ds[a])
+                };
+            }
+            let weight = w[0] * w[1] * w[2];
             v += weight * n;
-            g += DVec3::new(dw.x * w.y * w.z, w.x * dw.y * w.z, w.x * w.y * dw.z) * n + gv * weight;
+            g[0] += dw[0] * w[1] * w[2] * n + k[0] * weight;
+            g[1] += w[0] * dw[1] * w[2] * n + k[1] * weight;
+            g[2] += w[0] * w[1] * dw[2] * n + k[2] * weight;
         }
         let v = v * SCALE_FACTOR;
         if v.abs() > 1.0 {
             // `perlin_3d` clamps to [-1, 1]: flat where it clamps.
             return (v.clamp(-1.0, 1.0), DVec3::ZERO);
         }
-        (v, g * SCALE_FACTOR)
+        (v, DVec3::from_array(g) * SCALE_FACTOR)
     }
 }
 
