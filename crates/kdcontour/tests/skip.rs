@@ -85,7 +85,7 @@ fn one_signed_level_chunks_build_as_sampled() {
     let fast = world.extract_all();
     world.build_all(&Unbounded(&field)).unwrap();
     let slow = world.extract_all();
-    assert!(fast.indices.len() > 0);
+    assert!(!fast.indices.is_empty());
     assert_eq!(fast.positions, slow.positions);
     assert_eq!(fast.indices, slow.indices);
 }

@@ -291,4 +291,34 @@ mod tests {
         let nan = FnField(|_| f32::NAN);
         assert_eq!(raycast(&nan, Vec3::ZERO, Vec3::X, 3.0, 0.5), None);
     }
+
+    #[test]
+    fn lipschitz_bounds_and_iso_shifts_hold() {
+        let sphere: std::sync::Arc<dyn Field> = std::sync::Arc::new(
+            csg::CsgNode::from_json(r#"{"type":"sphere","radius":1.0}"#)
+                .unwrap()
+                .compile()
+                .unwrap(),
+        );
+        let shifted = IsoShift {
+            inner: sphere.clone(),
+            iso: 0.25,
+        };
+        let mut rng = crate::world::layout::Rng(2);
+        let mut unit3 = || Vec3::new(rng.unit() as f32, rng.unit() as f32, rng.unit() as f32);
+        for _ in 0..200 {
+            let lo = unit3() * 6.0 - 3.0;
+            let hi = lo + unit3() * 2.0;
+            let (a, b) = sphere.bound(lo, hi).unwrap();
+            let (sa, sb) = shifted.bound(lo, hi).unwrap();
+            assert_eq!((sa, sb), (a - 0.25, b - 0.25));
+            for _ in 0..20 {
+                let p = lo + (hi - lo) * unit3();
+                let (v, s) = (sphere.value(p), shifted.value(p));
+                assert!(a <= v && v <= b && sa <= s && s <= sb);
+            }
+        }
+        // No Lipschitz bound, no value bound.
+        assert_eq!(FnField(|p: Vec3| p.x).bound(Vec3::ZERO, Vec3::ONE), None);
+    }
 }

@@ -213,7 +213,7 @@ impl Field for Heightfield {
         Vec3::new(-dx as f32, 1.0, -dz as f32)
     }
 
-    /// `y - height` with the height within `base +- amplitude` ([`FBM_MAX`]).
+    /// `y - height` with the height within `base +- amplitude` (`FBM_MAX`, proven in the source).
     fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
         let (base, amp) = (self.params.base as f64, self.params.amplitude as f64);
         let scale = lo.y.abs().max(hi.y.abs()) as f64 + base.abs() + amp;
@@ -254,7 +254,7 @@ impl Field for Heightfield {
 /// A 3-D density terrain (see [`DensityParams`]).
 ///
 /// Its noises are the `noise` crate's `Fbm<Perlin>` and `Perlin`, computed bit
-/// for bit by a faster copy ([`perlin`]) that also differentiates them.
+/// for bit by a faster copy (module `perlin`) that also differentiates them.
 pub struct Density {
     params: DensityParams,
     noise: Fbm3,
@@ -349,7 +349,7 @@ impl Field for Density {
     }
 
     /// The surface term `y - base - amplitude * fbm` is bounded through the
-    /// box's y range and `|fbm| <= 1` ([`FBM_MAX`]); the tunnel term
+    /// box's y range and `|fbm| <= 1` (`FBM_MAX`, proven in the source); the tunnel term
     /// `(radius - |(n1, n2)|) / frequency` lies in
     /// `[(radius - sqrt 2) / frequency, radius / frequency]` (each Perlin noise is
     /// clamped to `[-1, 1]`), lowered by the depth fade, which never decreases with
