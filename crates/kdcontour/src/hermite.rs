@@ -114,6 +114,10 @@ pub fn one_sign(
 
 /// Samples `field` at every corner of `grid`, in parallel over z slabs.
 ///
+/// Without a Lipschitz bound, layers of corners (one y, all x and z) outside the
+/// span that [`Field::bound`] cannot prove one-signed get [`FAR`] with their
+/// sign instead of an evaluation.
+///
 /// With a Lipschitz bound `L`, the field is first evaluated at the centre of every
 /// block of `SKIP_BLOCK`³ cells; a block whose centre value exceeds `L` times its
 /// half-diagonal holds no surface, and its corners get [`FAR`] with the centre's

@@ -22,6 +22,12 @@
 //! chunks that share a face resolve it the same way; samples sit on one lattice
 //! ([`Grid::offset`]), so a corner shared by two chunks has bitwise the same value
 //! in both.
+//!
+//! A chunk whose field bound ([`Field::bound`]) proves all of its samples to be of
+//! one sign (sky far above a terrain, rock far below it) is not sampled: its tree
+//! is built from the signs alone and is the tree sampling would build, with no
+//! surface. Inside a sampled chunk, whole layers the bound proves one-signed are
+//! skipped the same way ([`crate::hermite::sample`]).
 
 pub mod conform;
 pub mod layout;

@@ -15,6 +15,17 @@ fn value64(d: &Density, q: DVec3) -> f64 {
     }
 }
 
+/// `params` with its caves at every depth (no depth band).
+fn caves_everywhere(params: &DensityParams) -> DensityParams {
+    DensityParams {
+        caves: params
+            .caves
+            .clone()
+            .map(|c| CaveParams { depth: None, ..c }),
+        ..params.clone()
+    }
+}
+
 /// A point of the box `[lo, hi]` drawn from `rng`.
 fn point_in(rng: &mut Rng, lo: Vec3, hi: Vec3) -> Vec3 {
     let t = Vec3::new(rng.unit() as f32, rng.unit() as f32, rng.unit() as f32);
@@ -110,13 +121,7 @@ fn fbm_stays_within_its_proven_bound() {
 #[test]
 fn terrain_bounds_hold_over_random_boxes() {
     let banded = DensityParams::demo(5);
-    let everywhere = DensityParams {
-        caves: Some(CaveParams {
-            depth: None,
-            ..banded.caves.clone().unwrap()
-        }),
-        ..banded.clone()
-    };
+    let everywhere = caves_everywhere(&banded);
     let bare = DensityParams {
         caves: None,
         ..banded.clone()
@@ -178,10 +183,7 @@ fn the_depth_band_closes_caves_and_the_bound_proves_it() {
     // Above the band the banded field is the unbanded one, bit for bit; well
     // below it, it is solid.
     let banded = Density::new(demo.clone());
-    let everywhere = Density::new(DensityParams {
-        caves: Some(no_band),
-        ..demo.clone()
-    });
+    let everywhere = Density::new(caves_everywhere(&demo));
     let closed = 22.0 + DEMO_CAVE_DEPTH + 1.5 * w as f32;
     let mut rng = Rng(5);
     let (mut same, mut tunnels_cut) = (0, 0);
@@ -247,13 +249,7 @@ fn skipping_the_cave_noise_changes_no_value() {
         solid.max(tunnel - c.fade(-solid as f64) as f32)
     };
     let banded = DensityParams::demo(4);
-    let everywhere = DensityParams {
-        caves: Some(CaveParams {
-            depth: None,
-            ..banded.caves.clone().unwrap()
-        }),
-        ..banded.clone()
-    };
+    let everywhere = caves_everywhere(&banded);
     let mut rng = Rng(8);
     for params in [banded, everywhere] {
         let d = Density::new(params);
