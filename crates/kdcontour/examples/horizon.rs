@@ -1,9 +1,10 @@
 //! How chunk count, retained memory and build time grow with view distance when
 //! chunk levels double their cells with distance (issue 12, "Speed and memory").
 //!
-//! The field is the terrain demo's (`examples/terrain.rs` of the plugin: seed 7,
-//! amplitude 22, frequency 0.011, 5 octaves, caves of frequency 0.018 and radius
-//! 0.11); cells of 1, chunks of 32 cells. For a view distance `D` the region is
+//! The field is the terrain demo's (`examples/terrain.rs` of the plugin,
+//! [`DensityParams::demo`]: seed 7, amplitude 22, frequency 0.011, 5 octaves,
+//! caves of frequency 0.018 and radius 0.11 down to 24 cells below the surface);
+//! cells of 1, chunks of 32 cells. For a view distance `D` the region is
 //! `2 x 1 x 2` chunks of the top level `T`, whose chunks are `D` cells wide
 //! (`32 * 2^T = D`): `D` cells out from the camera along x and z, and a slab one
 //! top chunk (`D` cells) tall with the mean surface (y = 0) in its middle. Levels
@@ -15,6 +16,26 @@
 //! region (intersected with a box), and that mesh must be watertight, manifold and
 //! oriented.
 //!
+//! Chunks the field's bound ([`Field::bound`]) proves to be all sky or all rock
+//! are not sampled (their trees are the ones sampling would build: no surface);
+//! per level the table counts them, and gives the build's time per remaining
+//! chunk and thread. The build's processor time is printed too: on a machine
+//! shared with other work the wall time grows with the load, and processor time
+//! divided by the threads is what the build takes on idle cores.
+//!
+//! Measured on 2 cores shared with other builds (load average about 7), ring 1:
+//!
+//! | distance | chunks (skipped) | retained | build (wall) | build (processor) | triangles |
+//! |---:|---:|---:|---:|---:|---:|
+//! | 256 | 298 (120) | 22.6 MB | 6.64 s | 3.04 s | 154,577 |
+//! | 1,024 | 634 (360) | 37.7 MB | 13.63 s | 6.46 s | 342,728 |
+//! | 4,096 | 970 (600) | 51.6 MB | 18.46 s | 9.22 s | 519,595 |
+//! | 16,384 | 1,306 (840) | 66.0 MB | 27.86 s | 12.46 s | 715,028 |
+//!
+//! Chunks grow by about 340 per quadrupling of the distance, memory by 15 MB
+//! (the log of the distance, not its square); every capped view is watertight,
+//! manifold and oriented.
+//!
 //! `cargo run --release -p kdcontour --example horizon [-- DISTANCE... [--ring R]]`
 //! (default distances 256 1024 4096 16384, ring 1). A distance stops, and says
 //! so, when its retained trees pass `MAX_BYTES` or its build passes `MAX_SECS`.
@@ -22,7 +43,8 @@
 use glam::{IVec3, Vec3};
 use kdcontour::field::terrain::{Density, DensityParams};
 use kdcontour::world::{ChunkKey, Layout, LevelWorld};
-use kdcontour::{validate, Field, MeshReport, Settings};
+use kdcontour::{hermite, validate, Field, MeshReport, Settings};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 /// Cells per chunk side (the terrain demo's default).
@@ -49,6 +71,8 @@ fn terrain() -> Density {
 #[derive(Default)]
 struct Level {
     chunks: usize,
+    /// Chunks the field's bound proved one-signed (no sampling).
+    skipped: usize,
     retained: usize,
     build_s: f64,
 }
@@ -58,6 +82,8 @@ struct View {
     top: u32,
     levels: Vec<Level>,
     build_s: f64,
+    /// Processor time of the build, all threads (Linux only).
+    build_cpu_s: Option<f64>,
     contour_s: f64,
     report: MeshReport,
     /// The region's world box (min, max).
@@ -97,6 +123,7 @@ fn view(distance: u32, ring: f32, field: &dyn Field) -> Result<View, String> {
     let top = (distance / CHUNK_RES).trailing_zeros();
     let keys = world.chunks();
     let mut levels: Vec<Level> = (0..=top).map(|_| Level::default()).collect();
+    let cpu0 = cpu_seconds().unwrap_or(0.0);
     let start = Instant::now();
     for (l, level) in levels.iter_mut().enumerate() {
         let mine: Vec<ChunkKey> = keys
@@ -105,6 +132,16 @@ fn view(distance: u32, ring: f32, field: &dyn Field) -> Result<View, String> {
             .copied()
             .collect();
         level.chunks = mine.len();
+        level.skipped = mine
+            .iter()
+            .filter(|k| {
+                let b = world.chunk_build(k);
+                matches!(
+                    hermite::one_sign(field, &b.grid, 3, &b.settings),
+                    Ok(Some(_))
+                )
+            })
+            .count();
         let t = Instant::now();
         for batch in mine.chunks(BATCH) {
             world.build(batch, field).map_err(|e| e.to_string())?;
@@ -127,6 +164,7 @@ fn view(distance: u32, ring: f32, field: &dyn Field) -> Result<View, String> {
             .sum();
     }
     let build_s = start.elapsed().as_secs_f64();
+    let build_cpu_s = cpu_seconds().map(|c| c - cpu0);
     let t = Instant::now();
     let mesh = world.extract_all();
     let contour_s = t.elapsed().as_secs_f64();
@@ -134,6 +172,7 @@ fn view(distance: u32, ring: f32, field: &dyn Field) -> Result<View, String> {
         top,
         levels,
         build_s,
+        build_cpu_s,
         contour_s,
         report: validate(&mesh, None),
         region: region(&world),
@@ -168,6 +207,15 @@ impl Capped<'_> {
 impl Field for Capped<'_> {
     fn value(&self, p: Vec3) -> f32 {
         self.field.value(p).max(self.wall(p))
+    }
+
+    /// The larger of the field's bound and the wall's (distance-like, slope at
+    /// most 1: its value at the box's centre plus or minus the half-diagonal).
+    fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        let (a, b) = self.field.bound(lo, hi)?;
+        let w = self.wall((lo + hi) * 0.5);
+        let r = (hi - lo).length() * 0.5 * 1.001;
+        Some((a.max(w - r), b.max(w + r)))
     }
 
     fn gradient(&self, p: Vec3) -> Vec3 {
@@ -239,54 +287,142 @@ fn main() {
     }
 }
 
-/// Times sampling against the whole build for one chunk at the camera (level 0)
-/// and one farther out (level 4), on one thread.
+/// Times sampling against the whole build for one chunk near the camera (level
+/// 0) and one farther out (level 4), on one thread: the first of each level that
+/// the field's bound cannot skip.
 fn print_stage_times(field: &dyn Field) {
     let world = layout(1024, 1.0).expect("a valid layout");
     for level in [0, 4] {
-        let Some(k) = world.chunks().into_iter().find(|k| k.level == level) else {
+        let surface = |k: &ChunkKey| {
+            let b = world.chunk_build(k);
+            matches!(hermite::one_sign(field, &b.grid, 3, &b.settings), Ok(None))
+        };
+        let Some(k) = world
+            .chunks()
+            .into_iter()
+            .find(|k| k.level == level && surface(k))
+        else {
             continue;
         };
         let mut build = world.chunk_build(&k);
         build.settings.threads = 1;
+        let counted = Counting::new(field);
         let t = Instant::now();
-        let samples = kdcontour::hermite::sample(field, &build.grid, &build.settings);
+        let samples = build.samples(&counted).expect("the chunk samples");
         let sample_ms = t.elapsed().as_secs_f64() * 1e3;
+        let sampled = counted.take();
         let t = Instant::now();
-        let tree = build.run(field).expect("the chunk builds");
+        let tree = build.run(&counted).expect("the chunk builds");
         let build_ms = t.elapsed().as_secs_f64() * 1e3;
+        let (values, gradients) = counted.take();
         println!(
-            "one level-{level} chunk on one thread: sampling {} corners {sample_ms:.1} ms of a \
-             {build_ms:.1} ms build, {} KB retained",
-            samples.map_or(0, |v| v.len()),
+            "one level-{level} chunk{} on one thread: sampling {} corners ({} evaluations) \
+             {sample_ms:.1} ms of a {build_ms:.1} ms build ({} evaluations, {} gradients), \
+             {} KB retained",
+            if build.neighbourhood.coarser.is_empty() {
+                ""
+            } else {
+                " (conforming)"
+            },
+            samples.len(),
+            sampled.0,
+            values,
+            gradients,
             tree.retained_bytes() >> 10
         );
     }
 }
 
+/// A field that counts its evaluations.
+struct Counting<'a> {
+    field: &'a dyn Field,
+    values: AtomicUsize,
+    gradients: AtomicUsize,
+}
+
+impl<'a> Counting<'a> {
+    fn new(field: &'a dyn Field) -> Self {
+        Counting {
+            field,
+            values: AtomicUsize::new(0),
+            gradients: AtomicUsize::new(0),
+        }
+    }
+
+    /// The counts of values and gradients so far; starts counting again.
+    fn take(&self) -> (usize, usize) {
+        (
+            self.values.swap(0, Ordering::Relaxed),
+            self.gradients.swap(0, Ordering::Relaxed),
+        )
+    }
+}
+
+impl Field for Counting<'_> {
+    fn value(&self, p: Vec3) -> f32 {
+        self.values.fetch_add(1, Ordering::Relaxed);
+        self.field.value(p)
+    }
+
+    fn gradient(&self, p: Vec3) -> Vec3 {
+        self.gradients.fetch_add(1, Ordering::Relaxed);
+        self.field.gradient(p)
+    }
+
+    fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        self.field.bound(lo, hi)
+    }
+}
+
+/// Processor seconds this process has used (user and system, all threads), from
+/// `/proc/self/stat`; `None` off Linux. On a machine shared with other work the
+/// wall time of a build grows with the load, its processor time does not: on
+/// `THREADS` idle cores the build would take about processor time / `THREADS`.
+fn cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the command name (which is in parentheses): utime, stime are
+    // the 12th and 13th of them, in clock ticks (100 per second on Linux).
+    let rest = stat.rsplit_once(')')?.1;
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
+}
+
 fn print_view(v: &View) {
     let mb = |b: usize| b as f64 / (1 << 20) as f64;
     for (l, level) in v.levels.iter().enumerate() {
+        let built = level.chunks - level.skipped;
         println!(
-            "  level {l}: {:>4} chunks of {:>5} cells, {:>7.1} MB, build {:>6.2} s",
+            "  level {l}: {:>4} chunks of {:>5} cells ({:>4} skipped), {:>7.1} MB, build \
+             {:>6.2} s ({:>5.1} ms per sampled chunk per thread)",
             level.chunks,
             CHUNK_RES << l,
+            level.skipped,
             mb(level.retained),
-            level.build_s
+            level.build_s,
+            level.build_s * 1e3 * THREADS as f64 / built.max(1) as f64
         );
     }
     let chunks: usize = v.levels.iter().map(|l| l.chunks).sum();
+    let skipped: usize = v.levels.iter().map(|l| l.skipped).sum();
     let retained: usize = v.levels.iter().map(|l| l.retained).sum();
     let r = &v.report;
     println!(
-        "  total: {chunks} chunks (levels 0 to {}), {:.1} MB retained, build {:.2} s, \
-         weld {:.2} s, {} triangles",
+        "  total: {chunks} chunks (levels 0 to {}, {skipped} skipped), {:.1} MB retained, \
+         build {:.2} s, weld {:.2} s, {} triangles",
         v.top,
         mb(retained),
         v.build_s,
         v.contour_s,
         r.triangles
     );
+    if let Some(cpu) = v.build_cpu_s {
+        println!(
+            "  build processor time {cpu:.2} s on {THREADS} threads: about {:.2} s on \
+             {THREADS} idle cores",
+            cpu / THREADS as f64
+        );
+    }
     println!(
         "  open mesh: {} edges on 3+ triangles, {} misoriented, {} hole edges (the \
          region's sides), {} vertices with 2+ fans",

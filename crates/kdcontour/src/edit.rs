@@ -244,6 +244,31 @@ impl Field for EditedField {
         // keep the larger bound.
         self.base.lipschitz().map(|l| l.max(1.0))
     }
+
+    /// The base's bound, moved by the brushes: a brush whose reach (bounding
+    /// sphere grown by its blend) stays a distance `gap > 0` from the box is at
+    /// least `d = gap + blend` there, so adding it lowers the value to no less
+    /// than `min(lo, d) - blend / 4` (the polynomial smooth minimum is at most
+    /// `k / 4` below the plain one) and digging raises it to no more than
+    /// `max(hi, -d) + blend / 4`. `None` where a brush's reach meets the box.
+    fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        let (mut a, mut b) = self.base.bound(lo, hi)?;
+        for e in self.edits.iter() {
+            let (c, reach) = e.reach;
+            let gap = c.clamp(lo, hi).distance(c) - reach;
+            if gap.is_nan() || gap <= 0.0 {
+                return None;
+            }
+            let d = gap + e.blend;
+            match e.brush.op {
+                BrushOp::Add | BrushOp::SmoothAdd { .. } => a = a.min(d) - 0.25 * e.blend,
+                BrushOp::Subtract | BrushOp::SmoothSubtract { .. } => {
+                    b = b.max(-d) + 0.25 * e.blend
+                }
+            }
+        }
+        Some((a, b))
+    }
 }
 
 #[cfg(test)]
@@ -339,5 +364,51 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn bounds_hold_around_brushes_and_none_where_they_reach() {
+        use crate::field::terrain::{Density, DensityParams};
+        let base: Arc<dyn Field> = Arc::new(Density::new(DensityParams::demo(4)));
+        let mut f = EditedField::new(base);
+        for (c, op) in [
+            (Vec3::new(0.0, 10.0, 0.0), BrushOp::Add),
+            (Vec3::new(40.0, -5.0, 0.0), BrushOp::Subtract),
+            (
+                Vec3::new(-40.0, 30.0, 10.0),
+                BrushOp::SmoothAdd { radius: 4.0 },
+            ),
+            (
+                Vec3::new(0.0, -30.0, 40.0),
+                BrushOp::SmoothSubtract { radius: 3.0 },
+            ),
+        ] {
+            f = f.with_edit(Brush::sphere(c, 8.0, op)).unwrap();
+        }
+        let mut rng = crate::world::layout::Rng(17);
+        let mut unit3 = || Vec3::new(rng.unit() as f32, rng.unit() as f32, rng.unit() as f32);
+        let (mut bounded, mut reached) = (0, 0);
+        for _ in 0..400 {
+            let lo = Vec3::new(-80.0, -60.0, -80.0) + unit3() * Vec3::new(160.0, 120.0, 160.0);
+            let hi = lo + Vec3::splat(2.0) + unit3() * 20.0;
+            let Some((a, b)) = f.bound(lo, hi) else {
+                reached += 1;
+                continue;
+            };
+            bounded += 1;
+            for _ in 0..50 {
+                let v = f.value(lo + (hi - lo) * unit3());
+                assert!(a <= v && v <= b, "{v} outside [{a}, {b}] in {lo}..{hi}");
+            }
+        }
+        assert!(
+            bounded > 100 && reached > 0,
+            "{bounded} bounded, {reached} reached"
+        );
+        // A box around a brush has no bound; far above everything, air is proven.
+        let around = f.bound(Vec3::new(-1.0, 9.0, -1.0), Vec3::new(1.0, 11.0, 1.0));
+        assert!(around.is_none());
+        let sky = f.bound(Vec3::new(-50.0, 60.0, -50.0), Vec3::new(50.0, 90.0, 50.0));
+        assert!(sky.unwrap().0 > 0.0, "{sky:?}");
     }
 }

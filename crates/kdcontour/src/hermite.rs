@@ -89,7 +89,34 @@ const SKIP_BLOCK: u32 = 4;
 /// evaluating them (their sign is exact, their value is not).
 pub const FAR: f32 = f32::MAX;
 
+/// The samples of `grid` when [`Field::bound`] over its box grown by `margin`
+/// cells (plus one more, for the rounding of corner positions) proves one strict
+/// sign: every corner [`FAR`] with that sign, as [`sample`]'s skipped blocks, and
+/// no evaluation. `None` when the bound cannot tell; the grid is checked as
+/// [`sample`] checks it either way.
+pub fn one_sign(
+    field: &dyn Field,
+    grid: &Grid,
+    margin: u32,
+    settings: &Settings,
+) -> Result<Option<Vec<f32>>> {
+    check_grid(grid, settings)?;
+    let m = (margin + 1) as f32 * grid.cell_size;
+    let lo = grid.corner_pos(UVec3::ZERO) - m;
+    let hi = grid.corner_pos(grid.cells) + m;
+    let sign = match field.bound(lo, hi) {
+        Some((a, _)) if a > 0.0 => FAR,
+        Some((_, b)) if b < 0.0 => -FAR,
+        _ => return Ok(None),
+    };
+    Ok(Some(vec![sign; grid.corner_count() as usize]))
+}
+
 /// Samples `field` at every corner of `grid`, in parallel over z slabs.
+///
+/// Without a Lipschitz bound, layers of corners (one y, all x and z) outside the
+/// span that [`Field::bound`] cannot prove one-signed get [`FAR`] with their
+/// sign instead of an evaluation.
 ///
 /// With a Lipschitz bound `L`, the field is first evaluated at the centre of every
 /// block of `SKIP_BLOCK`³ cells; a block whose centre value exceeds `L` times its
@@ -103,17 +130,7 @@ pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Vec
     let mut values = vec![0f32; grid.corner_count() as usize];
     let lipschitz = field.lipschitz().filter(|l| l.is_finite() && *l > 0.0);
     match lipschitz {
-        None => {
-            const SLICES: u32 = 2;
-            values
-                .par_chunks_mut(slab * SLICES as usize)
-                .enumerate()
-                .for_each(|(i, out)| {
-                    let z0 = i as u32 * SLICES;
-                    let z1 = (z0 + SLICES).min(c.z);
-                    field.sample_grid(grid, z0..z1, out);
-                });
-        }
+        None => sample_layers(field, grid, &mut values),
         Some(l) => sample_skipping(field, grid, l, &mut values),
     }
     // Blocks scanned without an early exit vectorise; `position_first` per value
@@ -138,6 +155,69 @@ pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Vec
         });
     }
     Ok(values)
+}
+
+/// Samples with [`Field::sample_grid`] in parallel z slabs, except the layers of
+/// corners at one y (whole xz planes) below the lowest or above the highest layer
+/// that [`Field::bound`] cannot prove one-signed: those get [`FAR`] with their
+/// sign, as skipped blocks do (a terrain chunk far larger than its hills'
+/// height evaluates only the layers that reach them).
+fn sample_layers(field: &dyn Field, grid: &Grid, values: &mut [f32]) {
+    const SLICES: u32 = 2;
+    let c = grid.corners();
+    let known: Vec<Option<f32>> = (0..c.y)
+        .map(|y| {
+            // Half a cell of slack for the rounding of corner positions.
+            let m = 0.5 * grid.cell_size;
+            let lo = grid.corner_pos(UVec3::new(0, y, 0)) - m;
+            let hi = grid.corner_pos(UVec3::new(c.x - 1, y, c.z - 1)) + m;
+            match field.bound(lo, hi) {
+                Some((a, _)) if a > 0.0 => Some(FAR),
+                Some((_, b)) if b < 0.0 => Some(-FAR),
+                _ => None,
+            }
+        })
+        .collect();
+    let slab = (c.x * c.y) as usize;
+    let Some(ya) = known.iter().position(|k| k.is_none()) else {
+        for (i, v) in values.iter_mut().enumerate() {
+            *v = known[(i % slab) / c.x as usize].unwrap_or(FAR);
+        }
+        return;
+    };
+    let yb = known.iter().rposition(|k| k.is_none()).unwrap_or(ya);
+    // The layers ya..=yb: the same lattice points, so bitwise the same values.
+    let sub = Grid {
+        cells: UVec3::new(grid.cells.x, (yb - ya) as u32, grid.cells.z),
+        offset: grid.offset + glam::IVec3::new(0, ya as i32, 0),
+        ..*grid
+    };
+    let whole = ya == 0 && yb + 1 == c.y as usize;
+    let sub_slab = (c.x as usize) * (yb - ya + 1);
+    values
+        .par_chunks_mut(slab * SLICES as usize)
+        .enumerate()
+        .for_each(|(i, out)| {
+            let z0 = i as u32 * SLICES;
+            let z1 = (z0 + SLICES).min(c.z);
+            if whole {
+                field.sample_grid(grid, z0..z1, out);
+                return;
+            }
+            let mut part = vec![0f32; sub_slab * (z1 - z0) as usize];
+            field.sample_grid(&sub, z0..z1, &mut part);
+            let cx = c.x as usize;
+            for (out, part) in out.chunks_mut(slab).zip(part.chunks(sub_slab)) {
+                for (y, row) in out.chunks_mut(cx).enumerate() {
+                    if (ya..=yb).contains(&y) {
+                        let start = (y - ya) * cx;
+                        row.copy_from_slice(&part[start..start + cx]);
+                    } else {
+                        row.fill(known[y].unwrap_or(FAR));
+                    }
+                }
+            }
+        });
 }
 
 fn sample_skipping(field: &dyn Field, grid: &Grid, l: f32, values: &mut [f32]) {

@@ -14,10 +14,34 @@ pub mod volume;
 use crate::grid::Grid;
 use glam::Vec3;
 
-/// Step of the central differences used by [`Field::gradient`]'s default, in world
-/// units. Small enough for features a few cells wide at cell sizes down to 1e-3,
-/// large enough that f32 cancellation stays below 1e-3 relative on unit-scale fields.
+/// Smallest step of the central differences used by [`Field::gradient`]'s default,
+/// in world units. Small enough for features a few cells wide at cell sizes down to
+/// 1e-3, large enough that f32 cancellation stays below 1e-3 relative on unit-scale
+/// fields. Far from the origin the step grows with the coordinates
+/// ([`gradient_step`]).
 pub const GRADIENT_STEP: f32 = 1e-4;
+
+/// Units in the last place of the largest coordinate that one step of
+/// [`gradient_step`] spans at least.
+const STEP_ULPS: f32 = 32.0;
+
+/// The step [`Field::gradient`]'s default takes at `p`: [`GRADIENT_STEP`], or 32
+/// units in the last place of `p`'s largest coordinate where that is more.
+///
+/// A fixed step fails far out: at `|x| >= 2048` an f32 step of 1e-4 is below the
+/// spacing of representable coordinates, `x + h == x`, and the difference is 0.
+/// With at least 32 ulps both sides are distinct points, the step actually taken
+/// ([`central_difference`] divides by it) is exact, and a field rounded to its
+/// coordinates' precision errs by at most about 1/64 of its slope. The step passes
+/// `GRADIENT_STEP` beyond `|p| = 32`.
+pub fn gradient_step(p: Vec3) -> f32 {
+    let m = p.abs().max_element();
+    if !m.is_finite() {
+        return GRADIENT_STEP;
+    }
+    let ulp = f32::from_bits(m.to_bits() + 1) - m;
+    GRADIENT_STEP.max(STEP_ULPS * ulp)
+}
 
 /// A scalar field sampled by the mesher. Negative is inside.
 pub trait Field: Send + Sync {
@@ -25,9 +49,25 @@ pub trait Field: Send + Sync {
     fn value(&self, p: Vec3) -> f32;
 
     /// The gradient at `p`. The default uses central differences of
-    /// [`Field::value`] with step [`GRADIENT_STEP`]; analytic fields override it.
+    /// [`Field::value`] with step [`gradient_step`]`(p)`; analytic fields override
+    /// it.
     fn gradient(&self, p: Vec3) -> Vec3 {
-        central_difference(|q| self.value(q), p, GRADIENT_STEP)
+        central_difference(|q| self.value(q), p, gradient_step(p))
+    }
+
+    /// Sound bounds `(lo, hi)` of the value over the box `[lo, hi]`: every point
+    /// of the box has `lo <= value <= hi` (up to f32 rounding of the value itself,
+    /// a few ulps), or `None` when the field cannot tell. Chunk builds skip
+    /// sampling a box the bound proves to be of one sign
+    /// ([`crate::hermite::one_sign`]).
+    ///
+    /// The default uses [`Field::lipschitz`]: the value at the box's centre, plus
+    /// or minus `L` times its half-diagonal.
+    fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        let l = self.lipschitz().filter(|l| l.is_finite() && *l > 0.0)?;
+        let v = self.value((lo + hi) * 0.5);
+        let r = l * (hi - lo).length() * 0.5;
+        (v.is_finite() && r.is_finite()).then_some((v - r, v + r))
     }
 
     /// A Lipschitz bound `L` (|f(a) - f(b)| <= L |a - b|), if the field has one.
@@ -67,12 +107,18 @@ pub fn sample_each(
     }
 }
 
-/// Central differences of `f` at `p` with step `h`.
+/// Central differences of `f` at `p` with step `h`, each divided by the distance
+/// between the two points actually evaluated (`p + h` and `p - h` rounded to f32),
+/// so a step that is not a multiple of the coordinate's spacing costs no accuracy.
 pub fn central_difference(f: impl Fn(Vec3) -> f32, p: Vec3, h: f32) -> Vec3 {
-    let dx = f(p + Vec3::X * h) - f(p - Vec3::X * h);
-    let dy = f(p + Vec3::Y * h) - f(p - Vec3::Y * h);
-    let dz = f(p + Vec3::Z * h) - f(p - Vec3::Z * h);
-    Vec3::new(dx, dy, dz) / (2.0 * h)
+    let mut g = Vec3::ZERO;
+    for a in 0..3 {
+        let (mut hi, mut lo) = (p, p);
+        hi[a] += h;
+        lo[a] -= h;
+        g[a] = (f(hi) - f(lo)) / (hi[a] - lo[a]);
+    }
+    g
 }
 
 /// A reference or smart pointer to a field is the field: every method forwards.
@@ -90,6 +136,9 @@ macro_rules! forward_field {
             }
             fn lipschitz(&self) -> Option<f32> {
                 (**self).lipschitz()
+            }
+            fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+                (**self).bound(lo, hi)
             }
         }
     )*};
@@ -121,6 +170,10 @@ impl Field for IsoShift {
     }
     fn lipschitz(&self) -> Option<f32> {
         self.inner.lipschitz()
+    }
+    fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        let (a, b) = self.inner.bound(lo, hi)?;
+        Some((a - self.iso, b - self.iso))
     }
 }
 
@@ -237,5 +290,35 @@ mod tests {
         assert!((t - 1000.3).abs() < 1e-3, "{t}");
         let nan = FnField(|_| f32::NAN);
         assert_eq!(raycast(&nan, Vec3::ZERO, Vec3::X, 3.0, 0.5), None);
+    }
+
+    #[test]
+    fn lipschitz_bounds_and_iso_shifts_hold() {
+        let sphere: std::sync::Arc<dyn Field> = std::sync::Arc::new(
+            csg::CsgNode::from_json(r#"{"type":"sphere","radius":1.0}"#)
+                .unwrap()
+                .compile()
+                .unwrap(),
+        );
+        let shifted = IsoShift {
+            inner: sphere.clone(),
+            iso: 0.25,
+        };
+        let mut rng = crate::world::layout::Rng(2);
+        let mut unit3 = || Vec3::new(rng.unit() as f32, rng.unit() as f32, rng.unit() as f32);
+        for _ in 0..200 {
+            let lo = unit3() * 6.0 - 3.0;
+            let hi = lo + unit3() * 2.0;
+            let (a, b) = sphere.bound(lo, hi).unwrap();
+            let (sa, sb) = shifted.bound(lo, hi).unwrap();
+            assert_eq!((sa, sb), (a - 0.25, b - 0.25));
+            for _ in 0..20 {
+                let p = lo + (hi - lo) * unit3();
+                let (v, s) = (sphere.value(p), shifted.value(p));
+                assert!(a <= v && v <= b && sa <= s && s <= sb);
+            }
+        }
+        // No Lipschitz bound, no value bound.
+        assert_eq!(FnField(|p: Vec3| p.x).bound(Vec3::ZERO, Vec3::ONE), None);
     }
 }

@@ -1,9 +1,12 @@
 //! Noise terrain from the `noise` crate: an fBm height field, and a 3-D density with
 //! overhangs and caves. Y is up (Bevy's convention).
 
+mod perlin;
+
 use super::Field;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use noise::{Fbm, MultiFractal, NoiseFn, Perlin};
+use perlin::{Fbm3, Perlin3};
 use serde::{Deserialize, Serialize};
 
 /// Parameters of an fBm height field `y = base + amplitude * fbm(x, z)`.
@@ -61,12 +64,28 @@ impl DensityParams {
             caves: Some(CaveParams {
                 frequency: 0.018,
                 radius: 0.11,
+                depth: Some(DEMO_CAVE_DEPTH),
             }),
         }
     }
 }
 
+/// How deep below the surface the demo's caves reach (world units), before they
+/// close over the next `1.5 * radius / frequency` (about 9): tunnels open in hill
+/// sides and under the valleys, and the rock below them is provably solid, so a
+/// far horizon does not mesh kilometres of caves no one can see.
+pub const DEMO_CAVE_DEPTH: f32 = 24.0;
+
 /// Tunnels where two independent noises are both near zero.
+///
+/// The tunnel term is `t = (radius - |(n1, n2)|) / frequency` (world units, at
+/// most `radius / frequency`), and the terrain is air where `t` or the surface
+/// term says so. With a `depth`, tunnels exist only from the surface down to
+/// about that depth: at a point `d` world units below the surface (`d` is minus
+/// the surface term), `t` is lowered by `ramp(d - depth)`, where `ramp` is 0 for
+/// negative arguments, `x^2 / (2w)` up to `w = radius / frequency` and `x - w/2`
+/// beyond (continuous with its slope). Tunnels narrow from `depth` on and are
+/// closed everywhere below `depth + 1.5 w`; the field stays continuous.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CaveParams {
@@ -74,6 +93,38 @@ pub struct CaveParams {
     pub frequency: f32,
     /// Tunnel radius, in noise units (0.05 to 0.3 is sensible).
     pub radius: f32,
+    /// Depth below the surface (world units, >= 0) where tunnels start to close;
+    /// `None` (the default): caves at every depth.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth: Option<f32>,
+}
+
+impl CaveParams {
+    /// How much the tunnel term is lowered `below` world units under the surface
+    /// (0 everywhere without a depth band; never decreasing in `below`).
+    pub fn fade(&self, below: f64) -> f64 {
+        let Some(depth) = self.depth else {
+            return 0.0;
+        };
+        let w = self.radius as f64 / self.frequency as f64;
+        let x = below - depth as f64;
+        if x <= 0.0 {
+            0.0
+        } else if x < w {
+            x * x / (2.0 * w)
+        } else {
+            x - 0.5 * w
+        }
+    }
+
+    /// The slope of [`CaveParams::fade`] at `below` (0 to 1).
+    fn fade_slope(&self, below: f64) -> f64 {
+        let Some(depth) = self.depth else {
+            return 0.0;
+        };
+        let w = self.radius as f64 / self.frequency as f64;
+        ((below - depth as f64) / w).clamp(0.0, 1.0)
+    }
 }
 
 fn default_octaves() -> u32 {
@@ -121,18 +172,56 @@ impl Heightfield {
     pub fn height(&self, x: f32, z: f32) -> f32 {
         self.params.base + self.params.amplitude * self.noise.get([x as f64, z as f64]) as f32
     }
+
+    /// The terrain height at `(x, z)` in f64 (for differences far from the origin).
+    fn height64(&self, x: f64, z: f64) -> f64 {
+        self.params.base as f64 + self.params.amplitude as f64 * self.noise.get([x, z])
+    }
 }
+
+/// Bounds `lo` and `hi` of a value computed in f32, widened by far more than the
+/// f32 rounding of the few operations that computed it from terms of magnitude up
+/// to `scale`.
+fn widen(lo: f64, hi: f64, scale: f64) -> (f32, f32) {
+    let slack = 1e-5 * (scale + lo.abs() + hi.abs()) + 1e-6;
+    ((lo - slack) as f32, (hi + slack) as f32)
+}
+
+/// The largest magnitude [`Fbm`]`<`[`Perlin`]`>` returns: 1.
+///
+/// Proof from the `noise` 0.9 source: `perlin_3d` and `perlin_2d` end in
+/// `result.clamp(-1.0, 1.0)`, so every octave's signal `s_i` is in `[-1, 1]`.
+/// `Fbm::get` returns `scale * sum_{i=0}^{n-1} p^(i+1) s_i` with
+/// `scale = 1 / sum_{i=1}^{n} p^i` (`calc_scale_factor`), a weighted mean of the
+/// `s_i` with positive weights summing to 1 (here `p = 0.5`; the sum of `n` f64
+/// terms errs by a few ulps, which [`widen`] covers). So `|fbm| <= 1` at every
+/// point, for every seed, octave count and frequency.
+const FBM_MAX: f64 = 1.0;
 
 impl Field for Heightfield {
     fn value(&self, p: Vec3) -> f32 {
         p.y - self.height(p.x, p.z)
     }
 
+    /// Central differences of the height in f64 with a step of 1e-3 of the
+    /// first octave's period: as exact 65,536 units out as at the origin.
     fn gradient(&self, p: Vec3) -> Vec3 {
-        let h = 1e-3 / self.params.frequency;
-        let dx = (self.height(p.x + h, p.z) - self.height(p.x - h, p.z)) / (2.0 * h);
-        let dz = (self.height(p.x, p.z + h) - self.height(p.x, p.z - h)) / (2.0 * h);
-        Vec3::new(-dx, 1.0, -dz)
+        let h = 1e-3 / self.params.frequency as f64;
+        let (x, z) = (p.x as f64, p.z as f64);
+        let dx = (self.height64(x + h, z) - self.height64(x - h, z)) / (2.0 * h);
+        let dz = (self.height64(x, z + h) - self.height64(x, z - h)) / (2.0 * h);
+        Vec3::new(-dx as f32, 1.0, -dz as f32)
+    }
+
+    /// `y - height` with the height within `base +- amplitude` (`FBM_MAX`, proven in the source).
+    fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        let (base, amp) = (self.params.base as f64, self.params.amplitude as f64);
+        let scale = lo.y.abs().max(hi.y.abs()) as f64 + base.abs() + amp;
+        Some(widen(
+            lo.y as f64 - base - amp * FBM_MAX,
+            hi.y as f64 - base + amp * FBM_MAX,
+            scale,
+        ))
     }
 
     fn sample_grid(
@@ -163,20 +252,23 @@ impl Field for Heightfield {
 }
 
 /// A 3-D density terrain (see [`DensityParams`]).
+///
+/// Its noises are the `noise` crate's `Fbm<Perlin>` and `Perlin`, computed bit
+/// for bit by a faster copy (module `perlin`) that also differentiates them.
 pub struct Density {
     params: DensityParams,
-    noise: Fbm<Perlin>,
-    caves: Option<(Perlin, Perlin)>,
+    noise: Fbm3,
+    caves: Option<(Perlin3, Perlin3)>,
 }
 
 impl Density {
     /// Builds the noise generators.
     pub fn new(params: DensityParams) -> Self {
-        let noise = fbm(params.seed, params.frequency, params.octaves);
+        let noise = Fbm3::new(params.seed, params.frequency, params.octaves);
         let caves = params.caves.as_ref().map(|_| {
             (
-                Perlin::new(params.seed.wrapping_add(101)),
-                Perlin::new(params.seed.wrapping_add(202)),
+                Perlin3::new(params.seed.wrapping_add(101)),
+                Perlin3::new(params.seed.wrapping_add(202)),
             )
         });
         Density {
@@ -187,21 +279,100 @@ impl Density {
     }
 }
 
-impl Field for Density {
-    fn value(&self, p: Vec3) -> f32 {
-        let q = [p.x as f64, p.y as f64, p.z as f64];
-        let solid = p.y - self.params.base - self.params.amplitude * self.noise.get(q) as f32;
+impl Density {
+    /// The two cave noises at `q`, if there are caves.
+    fn cave_noise(&self, q: [f64; 3]) -> Option<(&CaveParams, f64, f64)> {
         match (&self.caves, &self.params.caves) {
             (Some((a, b)), Some(c)) => {
                 let f = c.frequency as f64;
                 let qc = [q[0] * f, q[1] * f, q[2] * f];
-                let n1 = a.get(qc) as f32;
-                let n2 = b.get(qc) as f32;
-                // Positive inside a tunnel (air); the terrain is air where either is.
-                let tunnel = (c.radius - (n1 * n1 + n2 * n2).sqrt()) / c.frequency;
-                solid.max(tunnel)
+                Some((c, a.get(qc), b.get(qc)))
             }
-            _ => solid,
+            _ => None,
         }
     }
 }
+
+impl Field for Density {
+    fn value(&self, p: Vec3) -> f32 {
+        let q = [p.x as f64, p.y as f64, p.z as f64];
+        let solid = p.y - self.params.base - self.params.amplitude * self.noise.get(q) as f32;
+        let Some(c) = &self.params.caves else {
+            return solid;
+        };
+        // Without a depth band the fade is 0 and `tunnel - 0.0` is `tunnel`.
+        let fade = c.fade(-solid as f64) as f32;
+        // The tunnel term below is at most `radius / frequency` in f32 too (the
+        // square root is >= 0 and rounding is monotone), so where the surface term
+        // reaches that, less the fade, the cave noises cannot change the value:
+        // skip them (in the sky and in rock below the band).
+        if solid >= c.radius / c.frequency - fade {
+            return solid;
+        }
+        match self.cave_noise(q) {
+            Some((c, n1, n2)) => {
+                let (n1, n2) = (n1 as f32, n2 as f32);
+                // Positive inside a tunnel (air); the terrain is air where either is.
+                let tunnel = (c.radius - (n1 * n1 + n2 * n2).sqrt()) / c.frequency;
+                solid.max(tunnel - fade)
+            }
+            None => solid,
+        }
+    }
+
+    /// Analytic, in f64 (the noises differentiated): as exact 65,536
+    /// units out as at the origin, and one noise evaluation where central
+    /// differences take six. Where the two terms are equal, the surface's.
+    fn gradient(&self, p: Vec3) -> Vec3 {
+        let q = p.as_dvec3();
+        let amp = self.params.amplitude as f64;
+        let (n, gn) = self.noise.get_grad(q);
+        let solid = q.y - self.params.base as f64 - amp * n;
+        let g_solid = DVec3::Y - gn * amp;
+        let (Some(c), Some((a, b))) = (&self.params.caves, &self.caves) else {
+            return g_solid.as_vec3();
+        };
+        let f = c.frequency as f64;
+        let ((n1, g1), (n2, g2)) = (a.get_grad(q * f), b.get_grad(q * f));
+        let len = n1.hypot(n2);
+        let tunnel = (c.radius as f64 - len) / f - c.fade(-solid);
+        if solid >= tunnel {
+            return g_solid.as_vec3();
+        }
+        // d/dp of -|n(p f)| / f, and of -fade(-solid).
+        let g_len = if len > 0.0 {
+            (g1 * n1 + g2 * n2) / len
+        } else {
+            DVec3::ZERO
+        };
+        (g_solid * c.fade_slope(-solid) - g_len).as_vec3()
+    }
+
+    /// The surface term `y - base - amplitude * fbm` is bounded through the
+    /// box's y range and `|fbm| <= 1` (`FBM_MAX`, proven in the source); the tunnel term
+    /// `(radius - |(n1, n2)|) / frequency` lies in
+    /// `[(radius - sqrt 2) / frequency, radius / frequency]` (each Perlin noise is
+    /// clamped to `[-1, 1]`), lowered by the depth fade, which never decreases with
+    /// depth: at least `fade(-surface_hi)`, at most `fade(-surface_lo)`. The value
+    /// is the larger term, so its bounds are the larger bounds.
+    fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        let (base, amp) = (self.params.base as f64, self.params.amplitude as f64);
+        let s_lo = lo.y as f64 - base - amp * FBM_MAX;
+        let s_hi = hi.y as f64 - base + amp * FBM_MAX;
+        let mut scale = lo.y.abs().max(hi.y.abs()) as f64 + base.abs() + amp;
+        let (v_lo, v_hi) = match &self.params.caves {
+            None => (s_lo, s_hi),
+            Some(c) => {
+                let (r, f) = (c.radius as f64, c.frequency as f64);
+                scale += (r + std::f64::consts::SQRT_2) / f;
+                let t_lo = (r - std::f64::consts::SQRT_2) / f - c.fade(-s_lo);
+                let t_hi = r / f - c.fade(-s_hi);
+                (s_lo.max(t_lo), s_hi.max(t_hi))
+            }
+        };
+        Some(widen(v_lo, v_hi, scale))
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -2,13 +2,14 @@
 //! meets a chunk of another level (the rules are in [`super::levels`]).
 
 use super::layout::{ChunkKey, Layout};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::grid::Grid;
 use crate::hermite::{self, Hermite};
 use crate::kdtree::{self, KdTree};
 use crate::Settings;
 use glam::{IVec3, UVec3, Vec3};
+use std::cell::Cell;
 
 /// What a chunk's samples depend on besides the field: the layout around it.
 /// A chunk whose neighbourhood changes is rebuilt.
@@ -46,6 +47,9 @@ pub struct LevelBuild {
     pub settings: Settings,
 }
 
+/// Fine cells past its grid that conforming reads ([`LevelBuild::conformed`]).
+const CONFORM_MARGIN: u32 = 3;
+
 /// The smallest negative sample: inside, and the root search on an edge from it
 /// starts at it and moves along the field.
 const TINY: f32 = -f32::MIN_POSITIVE;
@@ -68,11 +72,20 @@ impl LevelBuild {
 
     /// The chunk's samples: the field, conformed on the boundaries of coarser
     /// neighbours, with the halo across level faces forced inside.
+    ///
+    /// When the field's bound over every point the chunk reads (its grid and the
+    /// three cells conforming reads past it) proves one strict sign, nothing is
+    /// sampled ([`hermite::one_sign`]): conforming keeps a one-signed field's
+    /// signs, so the samples have the signs sampling would give, and the tree is
+    /// the one sampling would build (no surface).
     pub fn samples(&self, field: &dyn Field) -> Result<Vec<f32>> {
-        let mut values = if self.neighbourhood.coarser.is_empty() {
-            hermite::sample(field, &self.grid, &self.settings)?
-        } else {
-            self.conformed(field)?
+        let skipped = hermite::one_sign(field, &self.grid, CONFORM_MARGIN, &self.settings)?;
+        let mut values = match skipped {
+            Some(v) => v,
+            None if self.neighbourhood.coarser.is_empty() => {
+                hermite::sample(field, &self.grid, &self.settings)?
+            }
+            None => self.conformed(field)?,
         };
         self.force_halo(&mut values);
         Ok(values)
@@ -83,29 +96,61 @@ impl LevelBuild {
     /// where it has one, it is inside if a coarse face around the edge is
     /// ambiguous, else it keeps the field's sign (the fine crossing is then in the
     /// half that holds the field's root). A coarse face's centre follows
-    /// [`centre_inside`]. The grid is sampled three fine cells wider, so the
-    /// coarse corners and midpoints around its own points are read from samples
-    /// computed as their owners compute them.
+    /// [`centre_inside`]. The rules read up to three fine cells past the grid,
+    /// so the coarse corners and midpoints around its own points are read from
+    /// samples computed as their owners compute them; the grid is sampled, and
+    /// the points past it are evaluated when first read (only around the coarse
+    /// boundaries).
     fn conformed(&self, field: &dyn Field) -> Result<Vec<f32>> {
         let res = self.res as i32;
         let g = &self.grid;
-        // Reads reach three fine cells past the grid: a face centre's midpoints,
-        // and the coarse faces around their coarse edges.
         let wide = Grid {
-            cells: g.cells + UVec3::splat(6),
-            offset: g.offset - IVec3::splat(3),
+            cells: g.cells + UVec3::splat(2 * CONFORM_MARGIN),
+            offset: g.offset - IVec3::splat(CONFORM_MARGIN as i32),
             ..*g
         };
-        let wv = hermite::sample(field, &wide, &self.settings)?;
+        let inner = hermite::sample(field, g, &self.settings)?;
+        let corners = g.corners().as_ivec3();
+        // Points past the grid: NaN until first read.
+        let past: Vec<Cell<f32>> = vec![Cell::new(f32::NAN); wide.corner_count() as usize];
+        let bad: Cell<Option<(Vec3, f32)>> = Cell::new(None);
+        // The sample as taken: sampling may leave a corner it proved far from the
+        // surface at [`hermite::FAR`] with its sign.
+        let raw = |p: IVec3| {
+            let l = p - g.offset;
+            if l.cmpge(IVec3::ZERO).all() && l.cmplt(corners).all() {
+                let l = l.as_uvec3();
+                return inner[g.corner_index(l.x, l.y, l.z)];
+            }
+            let w = (p - wide.offset).as_uvec3();
+            let slot = &past[wide.corner_index(w.x, w.y, w.z)];
+            if slot.get().is_nan() {
+                let at = wide.corner_pos(w);
+                let v = field.value(at);
+                if !v.is_finite() {
+                    bad.set(Some((at, v)));
+                    return 0.0;
+                }
+                slot.set(v);
+            }
+            slot.get()
+        };
+        // The field's value, for the rules that average values: a skipped
+        // corner is evaluated as sampling would have.
         let real = |p: IVec3| {
-            let l = (p - wide.offset).as_uvec3();
-            wv[wide.corner_index(l.x, l.y, l.z)]
+            let v = raw(p);
+            if v.abs() == hermite::FAR {
+                let l = (p - wide.offset).as_uvec3();
+                field.value(wide.corner_pos(l)).copysign(v)
+            } else {
+                v
+            }
         };
         let mean = |vs: &[f32]| {
             let s: f64 = vs.iter().map(|&v| (v as f64).clamp(-1e30, 1e30)).sum();
             (s / vs.len() as f64) as f32
         };
-        let inside = |p: IVec3| real(p) < 0.0;
+        let inside = |p: IVec3| raw(p) < 0.0;
         // A coarse edge midpoint `p` (odd along `a` only).
         let mid = |p: IVec3, a: usize| {
             let ea = IVec3::AXES[a];
@@ -177,10 +222,13 @@ impl LevelBuild {
                                 mean(&around).min(TINY)
                             }
                         }
-                        _ => real(p),
+                        _ => raw(p),
                     };
                 }
             }
+        }
+        if let Some((position, value)) = bad.get() {
+            return Err(Error::NonFiniteSample { position, value });
         }
         Ok(values)
     }

@@ -22,6 +22,12 @@
 //! chunks that share a face resolve it the same way; samples sit on one lattice
 //! ([`Grid::offset`]), so a corner shared by two chunks has bitwise the same value
 //! in both.
+//!
+//! A chunk whose field bound ([`Field::bound`]) proves all of its samples to be of
+//! one sign (sky far above a terrain, rock far below it) is not sampled: its tree
+//! is built from the signs alone and is the tree sampling would build, with no
+//! surface. Inside a sampled chunk, whole layers the bound proves one-signed are
+//! skipped the same way ([`crate::hermite::sample`]).
 
 pub mod conform;
 pub mod layout;
@@ -571,7 +577,13 @@ fn build_chunk_tree(
     settings: &Settings,
 ) -> Result<KdTree> {
     settings.run(|| {
-        let h = Hermite::from_field(field, grid, settings)?;
+        // A chunk the field's bound proves one-signed has no surface: its tree is
+        // built from the signs alone, as sampling would have built it.
+        let values = match crate::hermite::one_sign(field, grid, 0, settings)? {
+            Some(v) => v,
+            None => crate::hermite::sample(field, grid, settings)?,
+        };
+        let h = Hermite::new(field, grid, &values, settings)?;
         let r = res as u16;
         Ok(kdtree::build_in(
             &h,

@@ -57,13 +57,16 @@ impl CsgNode {
             CsgNode::Density(p) => {
                 noise(p.amplitude, p.frequency, p.octaves)?;
                 match &p.caves {
-                    Some(c) => check_all(
-                        &[
+                    Some(c) => {
+                        let mut params = vec![
                             param("caves.frequency", c.frequency, Positive),
                             param("caves.radius", c.radius, Positive),
-                        ],
-                        path,
-                    ),
+                        ];
+                        if let Some(d) = c.depth {
+                            params.push(param("caves.depth", d, NonNegative));
+                        }
+                        check_all(&params, path)
+                    }
                     None => Ok(()),
                 }
             }
