@@ -38,9 +38,8 @@ use crate::volume::KdVolume;
 use bevy::prelude::*;
 use bevy::tasks::{futures::check_ready, AsyncComputeTaskPool};
 use kdcontour::world::layout::MAX_LEVEL;
-use kdcontour::world::{ChunkKey, Layout, PreparedLayout};
+use kdcontour::world::{ChunkKey, ChunkSet, Layout, PreparedLayout};
 use kdcontour::{LevelWorld, Settings};
-use std::collections::HashSet;
 
 /// Level-0 chunk rows `min_y..=max_y`.
 type Rows = (i32, i32);
@@ -272,7 +271,7 @@ impl VolumeState {
             // Nothing changed (the camera moved within the same rings).
             return Ok(());
         }
-        let mut blocked = HashSet::new();
+        let mut blocked = ChunkSet::default();
         if !first {
             let world = self.world().levels().expect("a level world");
             for k in &touched {

@@ -11,9 +11,8 @@ use crate::volume::{ChunkStatus, KdChunk};
 use bevy::prelude::*;
 use bevy::tasks::Task;
 use kdcontour::edit::{Brush, EditedField};
-use kdcontour::world::{ChunkKey, Layout, PreparedLayout};
+use kdcontour::world::{ChunkKey, ChunkMap, ChunkSet, Layout, PreparedLayout};
 use kdcontour::{Field, IndexedMesh};
-use std::collections::{HashMap, HashSet};
 use std::sync::Arc;
 
 /// Everything the plugin tracks for one loaded chunk.
@@ -73,7 +72,7 @@ pub(crate) struct Transition {
     pub keep: HorizonKeep,
     /// The chunks whose re-extraction would re-extract a held chunk (those
     /// that meet a seam a held chunk owns): their thresholds wait.
-    pub blocked: HashSet<ChunkKey>,
+    pub blocked: ChunkSet,
     /// The dropped chunks, still shown until the change is complete.
     pub retired: Vec<(ChunkKey, Entity)>,
 }
@@ -86,7 +85,7 @@ pub struct VolumeState {
     /// The volume's field and iso the edits are layered on.
     pub(crate) base: (Arc<dyn Field>, f32),
     /// One slot per loaded chunk.
-    pub(crate) slots: HashMap<ChunkKey, ChunkSlot>,
+    pub(crate) slots: ChunkMap<ChunkSlot>,
     /// The camera in the volume's local space: work is scheduled nearest first.
     pub(crate) focus: Vec3,
     /// The camera chunk and settings streaming last ran for.
@@ -106,7 +105,7 @@ impl VolumeState {
             world,
             field,
             base,
-            slots: HashMap::new(),
+            slots: ChunkMap::default(),
             focus: Vec3::ZERO,
             stream_key: None,
             transition: None,

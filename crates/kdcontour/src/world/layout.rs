@@ -11,11 +11,50 @@
 
 use crate::error::{Error, Result};
 use glam::{IVec3, Vec3};
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
+use std::hash::BuildHasherDefault;
 
 /// Deepest level a layout may use (a level-20 chunk is a million level-0 chunks
 /// wide).
 pub const MAX_LEVEL: u32 = 20;
+
+/// A fast hasher for [`ChunkKey`]s (a multiply-rotate hash of the level and the
+/// three coordinates, as rustc's FxHash): layouts look chunks up by the
+/// thousand per change, and the keys come from our own code, not from input
+/// an attacker chooses, so the standard library's DoS-resistant SipHash only
+/// costs time here.
+#[derive(Clone, Copy, Default)]
+pub struct KeyHasher(u64);
+
+impl std::hash::Hasher for KeyHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(b as u64);
+        }
+    }
+
+    fn write_u32(&mut self, n: u32) {
+        self.write_u64(n as u64);
+    }
+
+    fn write_i32(&mut self, n: i32) {
+        self.write_u64(n as u32 as u64);
+    }
+
+    fn write_u64(&mut self, n: u64) {
+        self.0 = (self.0.rotate_left(5) ^ n).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+}
+
+/// A map keyed by chunk ([`KeyHasher`]).
+pub type ChunkMap<V> = HashMap<ChunkKey, V, BuildHasherDefault<KeyHasher>>;
+
+/// A set of chunks ([`KeyHasher`]).
+pub type ChunkSet = HashSet<ChunkKey, BuildHasherDefault<KeyHasher>>;
 
 /// A chunk of a level layout: level `level`, at `coord` in units of
 /// level-`level` chunks.
@@ -80,7 +119,7 @@ impl ChunkKey {
 pub struct Layout {
     lo: IVec3,
     hi: IVec3,
-    leaves: HashSet<ChunkKey>,
+    leaves: ChunkSet,
     max_level: u32,
 }
 
@@ -102,7 +141,7 @@ impl Layout {
     /// The layout with the given chunks over the region `lo..hi` (level-0 chunks).
     /// Errors unless they cover it exactly once and are balanced.
     pub fn new(lo: IVec3, hi: IVec3, leaves: impl IntoIterator<Item = ChunkKey>) -> Result<Self> {
-        let leaves: HashSet<ChunkKey> = leaves.into_iter().collect();
+        let leaves: ChunkSet = leaves.into_iter().collect();
         let max_level = leaves.iter().map(|k| k.level).max().unwrap_or(0);
         let layout = Layout {
             lo,

@@ -59,7 +59,7 @@ mod seams;
 pub use seams::{LevelSnapshot, Seam};
 
 use super::conform::{level_grid, LevelBuild, Neighbourhood};
-use super::layout::{ChunkKey, Layout};
+use super::layout::{ChunkKey, ChunkMap, Layout};
 use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::grid::Grid;
@@ -84,7 +84,7 @@ struct Slot {
 #[derive(Clone, Debug)]
 pub struct PreparedLayout {
     layout: Layout,
-    neighbourhoods: HashMap<ChunkKey, Neighbourhood>,
+    neighbourhoods: ChunkMap<Neighbourhood>,
 }
 
 impl PreparedLayout {
@@ -119,9 +119,9 @@ pub struct LevelWorld {
     /// Build settings used for every chunk.
     pub settings: Settings,
     layout: Layout,
-    neighbourhoods: HashMap<ChunkKey, Neighbourhood>,
+    neighbourhoods: ChunkMap<Neighbourhood>,
     default_threshold: f32,
-    slots: HashMap<ChunkKey, Slot>,
+    slots: ChunkMap<Slot>,
 }
 
 impl LevelWorld {
@@ -148,9 +148,9 @@ impl LevelWorld {
             chunk_res,
             settings,
             layout: Layout::uniform(IVec3::ZERO, IVec3::ONE, 0)?,
-            neighbourhoods: HashMap::new(),
+            neighbourhoods: ChunkMap::default(),
             default_threshold: threshold,
-            slots: HashMap::new(),
+            slots: ChunkMap::default(),
         };
         world.set_layout(layout)?;
         Ok(world)

@@ -35,7 +35,7 @@ pub mod levels;
 mod lod;
 
 pub use conform::{LevelBuild, Neighbourhood};
-pub use layout::{ChunkKey, Layout};
+pub use layout::{ChunkKey, ChunkMap, ChunkSet, KeyHasher, Layout};
 pub use levels::{LevelSnapshot, LevelWorld, PreparedLayout, Seam};
 pub use lod::Lod;
 
