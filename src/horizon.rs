@@ -38,7 +38,7 @@ use crate::volume::KdVolume;
 use bevy::prelude::*;
 use bevy::tasks::{futures::check_ready, AsyncComputeTaskPool};
 use kdcontour::world::layout::MAX_LEVEL;
-use kdcontour::world::{ChunkKey, ChunkSet, Layout, PreparedLayout};
+use kdcontour::world::{ChunkKey, ChunkMap, ChunkSet, Layout, PreparedLayout};
 use kdcontour::{LevelWorld, Settings};
 
 /// Level-0 chunk rows `min_y..=max_y`.
@@ -164,9 +164,7 @@ pub(crate) fn stream(
             return;
         };
         state.pending_layout = None;
-        let started = result.and_then(|(prepared, keep)| {
-            state.relayout(commands, volume, prepared, keep, threshold)
-        });
+        let started = result.and_then(|next| state.relayout(commands, volume, next, threshold));
         if let Err(e) = started {
             error!("KdVolume {volume}: {e}");
         }
@@ -192,12 +190,51 @@ pub(crate) fn stream(
         reach: cells.0 as f32 / res as f32,
         rows,
     };
-    // Laying out and finding every chunk's neighbourhood costs milliseconds at
-    // a long view: off the main thread.
-    state.pending_layout = Some(AsyncComputeTaskPool::get().spawn(async move {
-        let layout = horizon_layout(res, cam, cells, rows)?;
-        Ok((PreparedLayout::new(layout)?, keep))
-    }));
+    // Laying out and finding every chunk's neighbourhood and seams costs
+    // milliseconds at a long view: off the main thread.
+    state.pending_layout = Some(
+        AsyncComputeTaskPool::get()
+            .spawn(async move { NextLayout::new(horizon_layout(res, cam, cells, rows)?, keep) }),
+    );
+}
+
+/// What a level change needs to know of its new layout, worked out on a task
+/// thread so the main thread only does the bookkeeping.
+pub(crate) struct NextLayout {
+    prepared: PreparedLayout,
+    keep: HorizonKeep,
+    /// For each kept chunk, the chunks whose owned seams touch it.
+    owners: ChunkMap<Vec<ChunkKey>>,
+    /// For each kept chunk, the chunks of the seams it owns.
+    partners: ChunkMap<Vec<ChunkKey>>,
+}
+
+impl NextLayout {
+    fn new(layout: Layout, keep: HorizonKeep) -> kdcontour::Result<Self> {
+        let prepared = PreparedLayout::new(layout)?;
+        let l = prepared.layout();
+        let kept: Vec<ChunkKey> = l.chunks().into_iter().filter(|k| keep.keeps(k)).collect();
+        let owners = kept
+            .iter()
+            .map(|k| (*k, l.seam_owners_touching(k)))
+            .collect();
+        let partners = kept
+            .iter()
+            .map(|k| {
+                let mut v: Vec<ChunkKey> =
+                    l.owned_seams(k).iter().flat_map(|s| s.chunks()).collect();
+                v.sort_by_key(|c| c.order());
+                v.dedup();
+                (*k, v)
+            })
+            .collect();
+        Ok(NextLayout {
+            prepared,
+            keep,
+            owners,
+            partners,
+        })
+    }
 }
 
 impl VolumeState {
@@ -206,10 +243,15 @@ impl VolumeState {
         &mut self,
         commands: &mut Commands,
         volume: Entity,
-        prepared: PreparedLayout,
-        keep: HorizonKeep,
+        next: NextLayout,
         threshold: f32,
     ) -> kdcontour::Result<()> {
+        let NextLayout {
+            prepared,
+            keep,
+            owners,
+            partners,
+        } = next;
         let layout = prepared.layout();
         let first = !self.slots.values().any(|s| s.shown);
         let dropped: Vec<ChunkKey> = self
@@ -221,7 +263,10 @@ impl VolumeState {
         // The kept chunks that own seams with dropped ones (in the old layout).
         let mut touched: Vec<ChunkKey> = Vec::new();
         for k in &dropped {
-            touched.extend(self.world().seam_owners_touching(k));
+            match self.seam_owners.get(k) {
+                Some(o) => touched.extend(o),
+                None => touched.extend(self.world().seam_owners_touching(k)),
+            }
         }
         let world = self
             .world_mut()
@@ -262,7 +307,7 @@ impl VolumeState {
             .collect();
         for k in &stale {
             self.mark_build(k);
-            touched.extend(self.world().seam_owners_touching(k));
+            touched.extend(owners.get(k).into_iter().flatten());
         }
         touched.retain(|k| self.slots.contains_key(k));
         touched.sort_by_key(|k| k.order());
@@ -273,14 +318,12 @@ impl VolumeState {
         }
         let mut blocked = ChunkSet::default();
         if !first {
-            let world = self.world().levels().expect("a level world");
             for k in &touched {
                 blocked.insert(*k);
-                for seam in world.owned_seams(k) {
-                    blocked.extend(seam.chunks());
-                }
+                blocked.extend(partners.get(k).into_iter().flatten());
             }
         }
+        self.seam_owners = owners;
         for k in &touched {
             let slot = self.slots.get_mut(k).expect("kept");
             slot.held = !first;

@@ -5,13 +5,13 @@
 //! [`ChunkKey`] (level 0 in a one-level world).
 
 use crate::chunks::VolumeWorld;
-use crate::horizon::HorizonKeep;
+use crate::horizon::{HorizonKeep, NextLayout};
 use crate::tasks::{BuildOut, ExtractOut};
 use crate::volume::{ChunkStatus, KdChunk};
 use bevy::prelude::*;
 use bevy::tasks::Task;
 use kdcontour::edit::{Brush, EditedField};
-use kdcontour::world::{ChunkKey, ChunkMap, ChunkSet, Layout, PreparedLayout};
+use kdcontour::world::{ChunkKey, ChunkMap, ChunkSet, Layout};
 use kdcontour::{Field, IndexedMesh};
 use std::sync::Arc;
 
@@ -93,7 +93,10 @@ pub struct VolumeState {
     /// The level change in progress, if any.
     pub(crate) transition: Option<Transition>,
     /// A horizon volume's next layout, being prepared on a task thread.
-    pub(crate) pending_layout: Option<Task<kdcontour::Result<(PreparedLayout, HorizonKeep)>>>,
+    pub(crate) pending_layout: Option<Task<kdcontour::Result<NextLayout>>>,
+    /// A horizon volume's kept chunks and the chunks whose owned seams touch
+    /// each (from its last layout).
+    pub(crate) seam_owners: ChunkMap<Vec<ChunkKey>>,
     /// A horizon volume's layout whose chunks are shown, and which of them.
     pub(crate) horizon_shown: Option<(Layout, HorizonKeep)>,
 }
@@ -110,6 +113,7 @@ impl VolumeState {
             stream_key: None,
             transition: None,
             pending_layout: None,
+            seam_owners: ChunkMap::default(),
             horizon_shown: None,
         }
     }

@@ -4,7 +4,7 @@
 use super::LevelWorld;
 use crate::kdtree::{contour, Job, KdTree, Part};
 use crate::mesh::IndexedMesh;
-use crate::world::layout::ChunkKey;
+use crate::world::layout::{ChunkKey, Layout};
 use glam::IVec3;
 use std::sync::Arc;
 
@@ -76,11 +76,11 @@ impl Seam {
     }
 }
 
-impl LevelWorld {
+impl Layout {
     /// Every seam that involves chunk `k` (built or not), each once.
     pub fn seams_of(&self, k: &ChunkKey) -> Vec<Seam> {
         let mut out = Vec::new();
-        let l = &self.layout;
+        let l = self;
         // Faces: the chunks across each face of k whose faces overlap k's.
         for a in 0..3 {
             for side in [-1, 1] {
@@ -174,6 +174,26 @@ impl LevelWorld {
             }
         }
         out
+    }
+}
+
+impl LevelWorld {
+    /// Every seam that involves chunk `k` (built or not), each once
+    /// ([`Layout::seams_of`]).
+    pub fn seams_of(&self, k: &ChunkKey) -> Vec<Seam> {
+        self.layout.seams_of(k)
+    }
+
+    /// The seams chunk `k` owns, in extraction order
+    /// ([`Layout::owned_seams`]).
+    pub fn owned_seams(&self, k: &ChunkKey) -> Vec<Seam> {
+        self.layout.owned_seams(k)
+    }
+
+    /// The chunks whose owned seams touch chunk `k`, `k` first
+    /// ([`Layout::seam_owners_touching`]).
+    pub fn seam_owners_touching(&self, k: &ChunkKey) -> Vec<ChunkKey> {
+        self.layout.seam_owners_touching(k)
     }
 
     /// The job for `seam` over the parts indexed by `index`; `None` when a chunk
