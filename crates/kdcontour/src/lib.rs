@@ -97,7 +97,7 @@ pub use grid::Grid;
 pub use kdtree::{BuildStats, KdTree};
 pub use mesh::IndexedMesh;
 pub use settings::{Partition, Settings};
-pub use validate::{validate, MeshReport};
+pub use validate::{validate, validate_with, Checks, MeshReport};
 pub use world::{ChunkWorld, LevelWorld, Lod};
 
 /// Builds the tree and contours it once at `threshold`.
