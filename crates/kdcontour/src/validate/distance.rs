@@ -65,40 +65,19 @@ pub(crate) fn crossing(field: &dyn Field, a: Vec3, fa: f32, b: Vec3, fb: f32, to
 }
 
 /// Distance from `p` (value `f0`) along unit `dir` to the first sign change or
-/// value within `zero` of 0, up to `limit`: tries `guess` first, then marches (by
-/// `|f| / L` with a Lipschitz bound `L`, by [`STEP_CELLS`] without).
-#[allow(clippy::too_many_arguments)]
+/// value within `zero` of 0, up to `limit`, marching by `|f| / L` with a
+/// Lipschitz bound `L`, by [`STEP_CELLS`] without.
 fn along(
     field: &dyn Field,
     p: Vec3,
     f0: f32,
     dir: Vec3,
-    guess: Option<f32>,
     zero: f32,
     limit: f32,
     cell: f32,
 ) -> Option<f32> {
     let lip = field.lipschitz().filter(|l| l.is_finite() && *l > 0.0);
-    let tol = ROOT_TOL_CELLS * cell;
-    let hit = |t0: f32, f_0: f32, t1: f32, f_1: f32| {
-        let q = crossing(field, p + dir * t0, f_0, p + dir * t1, f_1, tol);
-        p.distance(q)
-    };
     let (mut t, mut f) = (0f32, f0);
-    if let Some(g) = guess.filter(|g| g.is_finite() && *g < limit) {
-        // Just past the first-order estimate: a distance field crosses there.
-        let t1 = (g * 1.05 + 1e-3 * cell).min(limit);
-        let f1 = field.value(p + dir * t1);
-        if !f1.is_finite() {
-            return None;
-        }
-        if f1.abs() <= zero {
-            return Some(t1);
-        }
-        if outside(f1) != outside(f0) {
-            return Some(hit(0.0, f0, t1, f1));
-        }
-    }
     while t < limit {
         let step = match lip {
             Some(l) => (f.abs() / l).clamp(0.01 * cell, 2.0 * cell),
@@ -109,24 +88,70 @@ fn along(
         if !f1.is_finite() {
             return None;
         }
-        // A zero is on the surface (and counts as outside for the sign).
         if f1.abs() <= zero {
             return Some(t1);
         }
         if outside(f1) != outside(f) {
-            return Some(hit(t, f, t1, f1));
+            let (a, b) = (p + dir * t, p + dir * t1);
+            return Some(p.distance(crossing(field, a, f, b, f1, ROOT_TOL_CELLS * cell)));
         }
         (t, f) = (t1, f1);
     }
     None
 }
 
+/// Newton iterations of [`projection`].
+const NEWTON_STEPS: usize = 32;
+
+/// Distance from `p` (value `f0`) to the crossing on the segment from `p` to the
+/// end of a Newton path (steps of `f / |∇f|` against the gradient, 5% long and
+/// at most a cell each, so a crease's two sides are walked in turn), up to `cap`.
+/// `g0` is the gradient at `p`. `None` where the gradient vanishes or the path
+/// finds no sign change.
+fn projection(
+    field: &dyn Field,
+    p: Vec3,
+    f0: f32,
+    g0: Vec3,
+    zero: f32,
+    cell: f32,
+    cap: f32,
+) -> Option<f32> {
+    let mut q = p;
+    let mut fq = f0;
+    for k in 0..NEWTON_STEPS {
+        let g = if k == 0 { g0 } else { field.gradient(q) };
+        let gl = g.length();
+        if !(gl.is_finite() && gl > 0.0) {
+            return None;
+        }
+        let step = ((fq.abs() / gl) * 1.05 + 1e-3 * cell).min(cell);
+        q -= g / gl * (step * fq.signum());
+        if p.distance(q) > cap {
+            return None;
+        }
+        fq = field.value(q);
+        if !fq.is_finite() {
+            return None;
+        }
+        if fq.abs() <= zero {
+            return Some(p.distance(q));
+        }
+        if outside(fq) != outside(f0) {
+            let c = crossing(field, p, f0, q, fq, ROOT_TOL_CELLS * cell);
+            return Some(p.distance(c));
+        }
+    }
+    None
+}
+
 /// Distance from `p` to the surface of `field` (world units), at most `cap`:
-/// along the field's descent direction (the gradient, where it is finite and not
-/// zero), and, when that finds nothing within one cell, along the six axes too.
-/// Where `|f| / |∇f|` is within the root tolerance, that is the distance (f32
-/// cannot resolve a crossing there: the field rounds to a few ulps of 0 along the
-/// surface). `None` where the field is not finite at `p`.
+/// along a Newton path (see [`projection`]), and, when that finds nothing within
+/// one cell, along the six axes too. The crossing found is bracketed on a
+/// straight segment from `p`, so it is a real surface point. Where `|f| / |∇f|`
+/// is within the root tolerance, that is the distance (f32 cannot resolve a
+/// crossing there: the field rounds to a few ulps of 0 along the surface).
+/// `None` where the field is not finite at `p`.
 pub(crate) fn to_surface(field: &dyn Field, p: Vec3, cell: f32, cap: f32) -> Option<f32> {
     let f0 = field.value(p);
     if !f0.is_finite() {
@@ -137,10 +162,8 @@ pub(crate) fn to_surface(field: &dyn Field, p: Vec3, cell: f32, cap: f32) -> Opt
     }
     let g = field.gradient(p);
     let gl = g.length();
-    let mut best = cap;
-    let healthy = gl.is_finite() && gl > 0.0;
     // Values within the root tolerance (first order) of 0 are on the surface.
-    let zero = if healthy {
+    let zero = if gl.is_finite() && gl > 0.0 {
         ROOT_TOL_CELLS * cell * gl
     } else {
         0.0
@@ -148,12 +171,7 @@ pub(crate) fn to_surface(field: &dyn Field, p: Vec3, cell: f32, cap: f32) -> Opt
     if f0.abs() <= zero {
         return Some(f0.abs() / gl);
     }
-    if healthy {
-        let dir = g / gl * -f0.signum();
-        if let Some(t) = along(field, p, f0, dir, Some(f0.abs() / gl), zero, best, cell) {
-            best = best.min(t);
-        }
-    }
+    let mut best = projection(field, p, f0, g, zero, cell, cap).map_or(cap, |t| t.min(cap));
     if best > cell {
         for dir in [
             Vec3::X,
@@ -163,7 +181,7 @@ pub(crate) fn to_surface(field: &dyn Field, p: Vec3, cell: f32, cap: f32) -> Opt
             Vec3::Z,
             Vec3::NEG_Z,
         ] {
-            if let Some(t) = along(field, p, f0, dir, None, zero, best, cell) {
+            if let Some(t) = along(field, p, f0, dir, zero, best, cell) {
                 best = best.min(t);
             }
         }
@@ -236,9 +254,36 @@ pub(crate) struct SurfaceToMesh {
     pub lost: usize,
 }
 
-/// Surface to mesh: the crossings of `grid`'s edges (found on `field`) and their
-/// distance to the nearest triangle of `tris`.
+/// Surface to mesh: the crossings (found on `field`) of the edges of `grid` and of
+/// the grid shifted by half a cell on every axis, and their distance to the
+/// nearest triangle of `tris`. The shifted grid's crossings are not the mesher's
+/// own samples, which a mesh of `grid` interpolates best; they count in the
+/// distances only. `points` and `lost` are `grid`'s crossings, the surface the
+/// mesher saw (the shifted grid also sees features thinner than a cell that
+/// `grid` misses).
 pub(crate) fn surface_to_mesh(field: &dyn Field, grid: &Grid, tris: &TriGrid) -> SurfaceToMesh {
+    let mut s = crossings_to_mesh(field, grid, tris);
+    if grid.cells.min_element() >= 2 {
+        let shifted = Grid {
+            origin: grid.corner_pos(UVec3::ZERO) + Vec3::splat(0.5 * grid.cell_size),
+            cells: grid.cells - UVec3::ONE,
+            offset: glam::IVec3::ZERO,
+            ..*grid
+        };
+        let t = crossings_to_mesh(field, &shifted, tris);
+        let n = s.points + t.points;
+        if n > 0 {
+            // Mean over both sets of crossings.
+            s.mean = ((s.mean as f64 * s.points as f64 + t.mean as f64 * t.points as f64)
+                / n as f64) as f32;
+        }
+        s.max = s.max.max(t.max);
+    }
+    s
+}
+
+/// [`surface_to_mesh`] on the edges of one grid.
+fn crossings_to_mesh(field: &dyn Field, grid: &Grid, tris: &TriGrid) -> SurfaceToMesh {
     let cell = grid.cell_size;
     let cap = DISTANCE_CAP_CELLS * cell;
     let lost_at = LOST_CELLS * cell;

@@ -20,10 +20,13 @@
 //!   can only overstate the true distance (exactly along a distance field's
 //!   normal).
 //! - [`Distance::surface_to_mesh_max`] is how much surface the mesh misses: the
-//!   largest distance from a surface point (every crossing of the sampling grid's
-//!   edges, found by false position on the field) to the nearest triangle, exactly.
-//!   [`Distance::lost_surface`] is the share of those farther than
-//!   [`LOST_CELLS`] cells.
+//!   largest distance from a surface point (every crossing of the edges of the
+//!   sampling grid and of that grid shifted by half a cell, found by false
+//!   position on the field) to the nearest triangle, exactly.
+//!   [`Distance::lost_surface`] is the share of the sampling grid's own crossings
+//!   (the surface the mesher saw) farther than [`LOST_CELLS`] cells; the shifted
+//!   grid also sees features thinner than a cell, which no mesh of the grid can
+//!   hold, so they raise the maximum but are not counted lost.
 //!
 //! Both are searched up to [`DISTANCE_CAP_CELLS`] cells: that value means "at
 //! least that far". Their maximum is the two-sided (Hausdorff) distance as far as
@@ -130,11 +133,11 @@ pub struct Distance {
     pub mesh_to_surface_mean: f32,
     /// Largest distance from a surface point to the mesh.
     pub surface_to_mesh_max: f32,
-    /// Its mean over the surface points.
+    /// Its mean over the surface points (of both grids).
     pub surface_to_mesh_mean: f32,
-    /// Surface points sampled (crossings of the grid's edges).
+    /// Surface points the lost share is of (crossings of the grid's edges).
     pub surface_points: usize,
-    /// Share of the surface points farther than [`LOST_CELLS`] from the mesh.
+    /// Share of those farther than [`LOST_CELLS`] from the mesh.
     pub lost_surface: f32,
 }
 
