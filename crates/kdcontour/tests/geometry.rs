@@ -338,3 +338,62 @@ fn defects_of_every_scene_as_they_are_today() {
         }
     }
 }
+
+#[test]
+fn the_error_on_a_volume_never_divides_by_a_flat_gradient() {
+    // A segmented scan: a ball of value 100 in 0, so the trilinear gradient is
+    // exactly zero wherever eight neighbouring voxels agree.
+    let n = 40u32;
+    let mut data = Vec::new();
+    for z in 0..n {
+        for y in 0..n {
+            for x in 0..n {
+                let p = glam::UVec3::new(x, y, z).as_vec3() - Vec3::splat(19.3);
+                data.push(if p.length() < 13.0 { 100.0 } else { 0.0 });
+            }
+        }
+    }
+    let vol = kdcontour::field::volume::SampledVolume {
+        dims: glam::UVec3::splat(n),
+        spacing: Vec3::ONE,
+        origin: Vec3::ZERO,
+        data,
+        iso: 50.0,
+        inside: kdcontour::field::volume::Inside::Above,
+    };
+    let (lo, hi) = vol.bounds();
+    let grid = Grid::fit(lo, hi, n);
+    let tree = KdTree::build(&vol, &grid, &Settings::default()).unwrap();
+    for e in [-1.0, 0.1, 1.0] {
+        let mesh = tree.mesh(e);
+        let (r, d) = full(&mesh, &vol, &grid);
+        // The first-order figure as it was: |f| / max(|grad f|, 1e-6) at vertices.
+        let old = mesh
+            .positions
+            .iter()
+            .map(|&p| {
+                use kdcontour::Field;
+                vol.value(p).abs() / vol.gradient(p).length().max(1e-6) / grid.cell_size
+            })
+            .fold(0f32, f32::max);
+        println!(
+            "e {e}: old vertex error {old}, now {} (mesh->surface {}, surface->mesh {})",
+            r.max_vertex_error, d.mesh_to_surface_max, d.surface_to_mesh_max
+        );
+        assert!(r.max_error < 2.0, "e {e}: {r:?}");
+        assert!(d.mesh_to_surface_max < 2.0, "e {e}: {d:?}");
+        assert_eq!(d.lost_surface, 0.0);
+    }
+    // A triangle in the flat outside, 3 voxels out from the ball's radius of 13:
+    // |f| = 50 over a zero gradient was 5e7 cells; the search finds the surface.
+    let c = Vec3::splat(19.3) + Vec3::X * 16.0;
+    let m = mesh_of(vec![c, c + Vec3::Y * 0.5, c + Vec3::Z * 0.5], vec![0, 1, 2]);
+    let old = {
+        use kdcontour::Field;
+        vol.value(c).abs() / vol.gradient(c).length().max(1e-6) / grid.cell_size
+    };
+    let r = validate(&m, Some((&vol, grid.cell_size)));
+    let cells = 3.0 / grid.cell_size;
+    assert!(old > 1e6, "{old}");
+    assert!((r.max_vertex_error - cells).abs() < 0.6, "{cells}: {r:?}");
+}
