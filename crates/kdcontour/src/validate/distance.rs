@@ -282,58 +282,66 @@ pub(crate) fn surface_to_mesh(field: &dyn Field, grid: &Grid, tris: &TriGrid) ->
     s
 }
 
-/// [`surface_to_mesh`] on the edges of one grid.
+/// Cells per side of the blocks [`crossings_to_mesh`] samples at once.
+const BLOCK: u32 = 8;
+
+/// [`surface_to_mesh`] on the edges of one grid, block by block in parallel.
+/// With a Lipschitz bound, a block whose centre is farther from the surface than
+/// its half diagonal allows has no crossing and is not sampled.
 fn crossings_to_mesh(field: &dyn Field, grid: &Grid, tris: &TriGrid) -> SurfaceToMesh {
     let cell = grid.cell_size;
     let cap = DISTANCE_CAP_CELLS * cell;
     let lost_at = LOST_CELLS * cell;
-    let c = grid.corners();
-    // Slabs of SLAB cell layers, sampled with one shared corner layer, in parallel.
-    const SLAB: u32 = 8;
-    let slabs: Vec<u32> = (0..grid.cells.z).step_by(SLAB as usize).collect();
-    let per = slabs
+    let lip = field.lipschitz().filter(|l| l.is_finite() && *l > 0.0);
+    let nb = (grid.cells + UVec3::splat(BLOCK - 1)) / BLOCK;
+    let blocks: Vec<UVec3> = (0..nb.z)
+        .flat_map(|z| (0..nb.y).flat_map(move |y| (0..nb.x).map(move |x| UVec3::new(x, y, z))))
+        .collect();
+    let per = blocks
         .par_iter()
-        .map(|&z0| {
-            let z1 = (z0 + SLAB).min(grid.cells.z);
-            let layer = (c.x * c.y) as usize;
-            let mut v = vec![0f32; layer * (z1 - z0 + 1) as usize];
-            field.sample_grid(grid, z0..z1 + 1, &mut v);
-            let at = |x: u32, y: u32, z: u32| {
-                v[((z - z0) * c.y + y) as usize * c.x as usize + x as usize]
-            };
+        .map(|&b| {
             let mut acc = (0f32, 0f64, 0usize, 0usize);
-            // Edges starting in corner layers z0..z1 (the last slab also owns
-            // the top layer's x and y edges).
-            let top = if z1 == grid.cells.z { z1 } else { z1 - 1 };
-            for z in z0..=top {
-                for y in 0..c.y {
-                    for x in 0..c.x {
-                        let f0 = at(x, y, z);
+            let lo = b * BLOCK;
+            let top = (lo + UVec3::splat(BLOCK)).min(grid.cells);
+            let (plo, ptop) = (grid.corner_pos(lo), grid.corner_pos(top));
+            if let Some(l) = lip {
+                let fc = field.value((plo + ptop) * 0.5);
+                if fc.abs() > l * 0.5 * plo.distance(ptop) * 1.001 {
+                    return acc;
+                }
+            }
+            // The block's corners, sampled on a grid of the same lattice (so at
+            // bitwise the positions of `grid`'s corners).
+            let sub = Grid {
+                cells: top - lo,
+                offset: grid.offset + lo.as_ivec3(),
+                ..*grid
+            };
+            let c = sub.corners();
+            let mut v = vec![0f32; (c.x * c.y * c.z) as usize];
+            field.sample_grid(&sub, 0..c.z, &mut v);
+            let at = |k: UVec3| v[((k.z * c.y + k.y) * c.x + k.x) as usize];
+            // Corners this block owns: up to its far faces, which the next block
+            // owns, but for the grid's own far faces.
+            let own = UVec3::select(top.cmpeq(grid.cells), c, c - UVec3::ONE);
+            for z in 0..own.z {
+                for y in 0..own.y {
+                    for x in 0..own.x {
+                        let k = UVec3::new(x, y, z);
+                        let f0 = at(k);
                         if !f0.is_finite() {
                             continue;
                         }
-                        let p0 = grid.corner_pos(UVec3::new(x, y, z));
-                        for (axis, ok) in [(0, x + 1 < c.x), (1, y + 1 < c.y), (2, z < z1)] {
-                            if !ok {
+                        for n in [k + UVec3::X, k + UVec3::Y, k + UVec3::Z] {
+                            if n.cmpge(c).any() {
                                 continue;
                             }
-                            let n = [
-                                UVec3::new(x + 1, y, z),
-                                UVec3::new(x, y + 1, z),
-                                UVec3::new(x, y, z + 1),
-                            ][axis];
-                            let f1 = at(n.x, n.y, n.z);
+                            let f1 = at(n);
                             if !f1.is_finite() || outside(f0) == outside(f1) {
                                 continue;
                             }
-                            let q = crossing(
-                                field,
-                                p0,
-                                f0,
-                                grid.corner_pos(n),
-                                f1,
-                                ROOT_TOL_CELLS * cell,
-                            );
+                            let (p0, p1) = (grid.corner_pos(lo + k), grid.corner_pos(lo + n));
+                            let q = crossing(field, p0, f0, p1, f1, ROOT_TOL_CELLS * cell);
                             let d = tris.nearest(q, cap);
                             acc.0 = acc.0.max(d);
                             acc.1 += d as f64;
