@@ -4,7 +4,8 @@
 use kdcontour::field::volume::Inside;
 use kdcontour::io::input::{parse_uvec3, parse_vec3, Input as Loaded};
 use kdcontour::io::volume::{self, VoxelType};
-use kdcontour::{Grid, Settings};
+use kdcontour::validate::Checks;
+use kdcontour::{Field, Grid, Settings};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -116,6 +117,10 @@ pub struct RunArgs {
     /// for `compare`).
     #[arg(long)]
     pub json: bool,
+    /// Skip the costly checks (crossing and overlapping triangles, the two-sided
+    /// distance and the lost surface); the others always run.
+    #[arg(long)]
+    pub quick_checks: bool,
 }
 
 impl RunArgs {
@@ -131,6 +136,18 @@ impl RunArgs {
         let loaded = input.load()?;
         let grid = loaded.grid(self.res);
         Ok((loaded, grid, threads(self.threads)))
+    }
+
+    /// What to check a mesh of `field` on `grid` for.
+    pub fn checks<'a>(&self, field: &'a dyn Field, grid: &'a Grid) -> Checks<'a> {
+        if self.quick_checks {
+            Checks {
+                field: Some((field, grid.cell_size)),
+                ..Default::default()
+            }
+        } else {
+            Checks::all(field, grid)
+        }
     }
 }
 

@@ -4,7 +4,7 @@
 use crate::args::{Input, RunArgs};
 use crate::output::json_line;
 use kdcontour::meshers::{self, Mesher};
-use kdcontour::validate;
+use kdcontour::validate::validate_with;
 
 #[derive(clap::Args)]
 pub struct Compare {
@@ -17,6 +17,7 @@ pub struct Compare {
 pub fn run(args: Compare) -> Result<(), String> {
     let (loaded, grid, settings) = args.run.prepare(&args.input)?;
     let (scene, field) = (&loaded.name, &*loaded.field);
+    let checks = args.run.checks(field, &grid);
     let RunArgs {
         res,
         threshold,
@@ -42,10 +43,11 @@ pub fn run(args: Compare) -> Result<(), String> {
         );
     }
     let mut octree_tris = None;
+    let mut reports = Vec::new();
     for mesher in Mesher::ALL {
         let (mesh, t) =
             meshers::run(mesher, &sampled, threshold, &settings).map_err(|e| e.to_string())?;
-        let r = validate(&mesh, Some((field, grid.cell_size)));
+        let r = validate_with(&mesh, &checks);
         if json {
             println!(
                 "{}",
@@ -79,6 +81,45 @@ pub fn run(args: Compare) -> Result<(), String> {
             }
             _ => {}
         }
+        reports.push((mesher.name(), r));
+    }
+    if !json {
+        print_geometry(&reports);
     }
     Ok(())
+}
+
+/// The geometric checks of every mesher, one row each (`-` where a check did not
+/// run).
+fn print_geometry(reports: &[(&str, kdcontour::MeshReport)]) {
+    println!(
+        "{:<15} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9} {:>7}",
+        "mesher",
+        "zero-area",
+        "slivers",
+        "flipped",
+        "crossing",
+        "overlap",
+        "depth",
+        "mesh->srf",
+        "srf->mesh",
+        "lost %"
+    );
+    let opt = |v: Option<String>| v.unwrap_or_else(|| "-".into());
+    for (name, r) in reports {
+        let (i, d) = (r.intersections.as_ref(), r.distance.as_ref());
+        println!(
+            "{:<15} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9} {:>7}",
+            name,
+            r.zero_area_triangles,
+            r.sliver_triangles,
+            opt(r.flipped_triangles.map(|n| n.to_string())),
+            opt(i.map(|i| i.crossing_pairs.to_string())),
+            opt(i.map(|i| i.overlapping_pairs.to_string())),
+            opt(i.map(|i| format!("{:.3}", i.max_depth))),
+            opt(d.map(|d| format!("{:.4}", d.mesh_to_surface_max))),
+            opt(d.map(|d| format!("{:.4}", d.surface_to_mesh_max))),
+            opt(d.map(|d| format!("{:.2}", 100.0 * d.lost_surface))),
+        );
+    }
 }

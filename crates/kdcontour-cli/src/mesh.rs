@@ -3,7 +3,8 @@
 use crate::args::{Input, RunArgs};
 use crate::output::{json_line, print_checks};
 use kdcontour::meshers::Timings;
-use kdcontour::{validate, IndexedMesh, KdTree};
+use kdcontour::validate::validate_with;
+use kdcontour::{IndexedMesh, KdTree};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -22,6 +23,7 @@ pub fn run(args: Mesh) -> Result<(), String> {
     let Mesh { input, run, out } = args;
     let (loaded, grid, settings) = run.prepare(&input)?;
     let (scene, field) = (&loaded.name, &*loaded.field);
+    let checks = run.checks(field, &grid);
     let RunArgs {
         res,
         threshold,
@@ -36,7 +38,8 @@ pub fn run(args: Mesh) -> Result<(), String> {
         .run(|| tree.extract(threshold, &mut mesh))
         .map_err(|e| e.to_string())?;
     let t2 = Instant::now();
-    let report = validate(&mesh, Some((field, grid.cell_size)));
+    let report = validate_with(&mesh, &checks);
+    let t3 = Instant::now();
     if let Some(path) = &out {
         mesh.save(path).map_err(|e| e.to_string())?;
     }
@@ -58,8 +61,12 @@ pub fn run(args: Mesh) -> Result<(), String> {
         );
         print_checks(&report);
         println!(
-            "time       sample {:.2} ms, build {:.2} ms, contour {:.2} ms, total {:.2} ms",
-            tree.stats.sample_ms, tree.stats.build_ms, contour_ms, total_ms
+            "time       sample {:.2} ms, build {:.2} ms, contour {:.2} ms, total {:.2} ms (checks {:.2} ms)",
+            tree.stats.sample_ms,
+            tree.stats.build_ms,
+            contour_ms,
+            total_ms,
+            (t3 - t2).as_secs_f64() * 1e3
         );
         println!(
             "tree       {} nodes, {} components, {} bytes retained ({:.1} per node)",

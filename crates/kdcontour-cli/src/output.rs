@@ -13,7 +13,7 @@ pub fn json_line(
     r: &MeshReport,
     t: &Timings,
 ) -> String {
-    serde_json::json!({
+    let mut line = serde_json::json!({
         "mesher": mesher,
         "scene": scene,
         "res": res,
@@ -29,8 +29,33 @@ pub fn json_line(
         "euler": r.euler,
         "max_error": r.max_error,
         "mean_error": r.mean_error,
+    });
+    let (obj, geo) = (line.as_object_mut().expect("an object"), geometry_json(r));
+    obj.extend(geo.as_object().expect("an object").clone());
+    line.to_string()
+}
+
+/// The geometric checks' keys (`null` where a check did not run).
+pub fn geometry_json(r: &MeshReport) -> serde_json::Value {
+    let i = r.intersections.as_ref();
+    let d = r.distance.as_ref();
+    serde_json::json!({
+        "zero_area_triangles": r.zero_area_triangles,
+        "coincident_vertices": r.coincident_vertices,
+        "sliver_triangles": r.sliver_triangles,
+        "flipped_triangles": r.flipped_triangles,
+        "crossing_pairs": i.map(|i| i.crossing_pairs),
+        "crossing_triangles": i.map(|i| i.crossing_triangles),
+        "crossing_depth": i.map(|i| i.max_depth),
+        "overlapping_pairs": i.map(|i| i.overlapping_pairs),
+        "overlapping_triangles": i.map(|i| i.overlapping_triangles),
+        "mesh_to_surface_max": d.map(|d| d.mesh_to_surface_max),
+        "mesh_to_surface_mean": d.map(|d| d.mesh_to_surface_mean),
+        "surface_to_mesh_max": d.map(|d| d.surface_to_mesh_max),
+        "surface_to_mesh_mean": d.map(|d| d.surface_to_mesh_mean),
+        "surface_points": d.map(|d| d.surface_points),
+        "lost_surface": d.map(|d| d.lost_surface),
     })
-    .to_string()
 }
 
 /// The summary's `checks` and `error` lines.
@@ -43,4 +68,37 @@ pub fn print_checks(r: &MeshReport) {
         "error      max {:.4} cells, mean {:.4} cells",
         r.max_error, r.mean_error
     );
+    let flipped = r.flipped_triangles.map_or("-".into(), |n| n.to_string());
+    println!(
+        "faces      {} zero-area, {} coincident vertices, {} slivers (< {} deg), {flipped} flipped",
+        r.zero_area_triangles,
+        r.coincident_vertices,
+        r.sliver_triangles,
+        kdcontour::validate::SLIVER_DEGREES
+    );
+    if let Some(i) = &r.intersections {
+        println!(
+            "crossings  {} pairs ({} triangles, depth {:.3} cells), {} coplanar overlapping pairs ({} triangles)",
+            i.crossing_pairs,
+            i.crossing_triangles,
+            i.max_depth,
+            i.overlapping_pairs,
+            i.overlapping_triangles
+        );
+    }
+    if let Some(d) = &r.distance {
+        println!(
+            "distance   mesh->surface max {:.4} mean {:.4}, surface->mesh max {:.4} mean {:.4} cells",
+            d.mesh_to_surface_max,
+            d.mesh_to_surface_mean,
+            d.surface_to_mesh_max,
+            d.surface_to_mesh_mean
+        );
+        println!(
+            "lost       {:.2}% of {} surface points farther than {} cells from the mesh",
+            100.0 * d.lost_surface,
+            d.surface_points,
+            kdcontour::validate::LOST_CELLS
+        );
+    }
 }

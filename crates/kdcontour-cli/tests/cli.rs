@@ -46,15 +46,55 @@ fn json_is_exactly_one_line_with_every_key() {
         "euler",
         "max_error",
         "mean_error",
+        "zero_area_triangles",
+        "coincident_vertices",
+        "sliver_triangles",
+        "flipped_triangles",
+        "crossing_pairs",
+        "crossing_triangles",
+        "crossing_depth",
+        "overlapping_pairs",
+        "overlapping_triangles",
+        "mesh_to_surface_max",
+        "mesh_to_surface_mean",
+        "surface_to_mesh_max",
+        "surface_to_mesh_mean",
+        "surface_points",
+        "lost_surface",
     ] {
         assert!(v.get(key).is_some(), "missing {key}: {out}");
     }
+    // Every check ran: the torus has no defect and loses nothing.
+    assert_eq!(v["crossing_pairs"], 0);
+    assert_eq!(v["flipped_triangles"], 0);
+    assert_eq!(v["lost_surface"], 0.0);
+    assert!(v["surface_points"].as_u64().unwrap() > 100);
     assert_eq!(v["mesher"], "kdtree");
     assert_eq!(v["scene"], "torus");
     assert_eq!(v["watertight"], true);
     assert_eq!(v["manifold"], true);
     assert_eq!(v["euler"], 0);
     assert!(v["triangles"].as_u64().unwrap() > 100);
+}
+
+#[test]
+fn quick_checks_skip_the_costly_ones() {
+    let (code, out, err) = kdcontour(&[
+        "mesh",
+        "--scene",
+        "torus",
+        "--res",
+        "16",
+        "--quick-checks",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    assert!(
+        v["crossing_pairs"].is_null() && v["lost_surface"].is_null(),
+        "{out}"
+    );
+    assert_eq!(v["flipped_triangles"], 0);
 }
 
 #[test]

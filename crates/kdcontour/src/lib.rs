@@ -55,8 +55,12 @@
 //!   malformed scene files (with line and column).
 //!
 //! ## What it does not guarantee
-//! - No self-intersection test: a coarse vertex clamped into a large node can make
-//!   neighbouring triangles cross on strongly curved surfaces.
+//! - No geometric guarantee: a coarse vertex clamped into a large node can make
+//!   neighbouring triangles cross on strongly curved surfaces, flat faces can fold
+//!   fans over in their plane, and features thinner than a cell can leave flipped
+//!   and zero-area faces. [`validate_with`] counts all of these (see
+//!   [`validate`](mod@validate) for what each figure means); the tests record
+//!   today's counts per scene (`tests/geometry.rs`, issue 13).
 //! - Features thinner than a cell are not resolved (the grid decides topology).
 //! - Surfaces that leave the grid are open along the grid's boundary.
 //! - Next to a coarser chunk a finer chunk follows the coarse contour, so its
@@ -97,7 +101,7 @@ pub use grid::Grid;
 pub use kdtree::{BuildStats, KdTree};
 pub use mesh::IndexedMesh;
 pub use settings::{Partition, Settings};
-pub use validate::{validate, MeshReport};
+pub use validate::{validate, validate_with, Checks, MeshReport};
 pub use world::{ChunkWorld, LevelWorld, Lod};
 
 /// Builds the tree and contours it once at `threshold`.

@@ -1,0 +1,370 @@
+//! Distances between a mesh and the surface of its field, without dividing by the
+//! gradient: a distance is the length to a sign change of the field, bracketed and
+//! refined on the field itself, so it is a real surface point's distance (an upper
+//! bound on the true one, exact along the normal of a distance field).
+
+use super::spatial::TriGrid;
+use crate::field::Field;
+use crate::grid::Grid;
+use glam::{UVec3, Vec3};
+use rayon::prelude::*;
+
+/// Distances are searched up to this many cells; a point with no surface (or no
+/// triangle) nearer reports this.
+pub const DISTANCE_CAP_CELLS: f32 = 8.0;
+/// A surface point farther than this many cells from every triangle is lost.
+pub const LOST_CELLS: f32 = 2.0;
+/// Crossings are refined to this many cells.
+const ROOT_TOL_CELLS: f32 = 1e-4;
+/// March step along a line when the field has no Lipschitz bound, in cells.
+const STEP_CELLS: f32 = 0.25;
+
+fn outside(v: f32) -> bool {
+    v >= 0.0
+}
+
+/// The crossing between `a` (value `fa`) and `b` (value `fb`, opposite side),
+/// refined by the Illinois method to `tol` (world units).
+pub(crate) fn crossing(field: &dyn Field, a: Vec3, fa: f32, b: Vec3, fb: f32, tol: f32) -> Vec3 {
+    let (mut t0, mut f0, mut t1, mut f1) = (0f32, fa, 1f32, fb);
+    let len = a.distance(b).max(f32::MIN_POSITIVE);
+    let mut side = 0i8;
+    for _ in 0..60 {
+        if (t1 - t0) * len <= tol || f0 == f1 {
+            break;
+        }
+        let t = (t0 - f0 * (t1 - t0) / (f1 - f0)).clamp(t0, t1);
+        // Bisect when false position stalls at an end.
+        let t = if t <= t0 || t >= t1 {
+            0.5 * (t0 + t1)
+        } else {
+            t
+        };
+        let ft = field.value(a.lerp(b, t));
+        if ft == 0.0 {
+            return a.lerp(b, t);
+        }
+        if !ft.is_finite() {
+            break;
+        }
+        if outside(ft) == outside(f0) {
+            (t0, f0) = (t, ft);
+            if side == -1 {
+                f1 *= 0.5;
+            }
+            side = -1;
+        } else {
+            (t1, f1) = (t, ft);
+            if side == 1 {
+                f0 *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    a.lerp(b, 0.5 * (t0 + t1))
+}
+
+/// Distance from `p` (value `f0`) along unit `dir` to the first sign change or
+/// value within `zero` of 0, up to `limit`, marching by `|f| / L` with a
+/// Lipschitz bound `L`, by [`STEP_CELLS`] without.
+fn along(
+    field: &dyn Field,
+    p: Vec3,
+    f0: f32,
+    dir: Vec3,
+    zero: f32,
+    limit: f32,
+    cell: f32,
+) -> Option<f32> {
+    let lip = field.lipschitz().filter(|l| l.is_finite() && *l > 0.0);
+    let (mut t, mut f) = (0f32, f0);
+    while t < limit {
+        let step = match lip {
+            Some(l) => (f.abs() / l).clamp(0.01 * cell, 2.0 * cell),
+            None => STEP_CELLS * cell,
+        };
+        let t1 = (t + step).min(limit);
+        let f1 = field.value(p + dir * t1);
+        if !f1.is_finite() {
+            return None;
+        }
+        if f1.abs() <= zero {
+            return Some(t1);
+        }
+        if outside(f1) != outside(f) {
+            let (a, b) = (p + dir * t, p + dir * t1);
+            return Some(p.distance(crossing(field, a, f, b, f1, ROOT_TOL_CELLS * cell)));
+        }
+        (t, f) = (t1, f1);
+    }
+    None
+}
+
+/// Newton iterations of [`projection`].
+const NEWTON_STEPS: usize = 32;
+
+/// Distance from `p` (value `f0`) to the crossing on the segment from `p` to the
+/// end of a Newton path (steps of `f / |∇f|` against the gradient, 5% long and
+/// at most a cell each, so a crease's two sides are walked in turn), up to `cap`.
+/// `g0` is the gradient at `p`. `None` where the gradient vanishes or the path
+/// finds no sign change.
+fn projection(
+    field: &dyn Field,
+    p: Vec3,
+    f0: f32,
+    g0: Vec3,
+    zero: f32,
+    cell: f32,
+    cap: f32,
+) -> Option<f32> {
+    let mut q = p;
+    let mut fq = f0;
+    for k in 0..NEWTON_STEPS {
+        let g = if k == 0 { g0 } else { field.gradient(q) };
+        let gl = g.length();
+        if !(gl.is_finite() && gl > 0.0) {
+            return None;
+        }
+        let step = ((fq.abs() / gl) * 1.05 + 1e-3 * cell).min(cell);
+        q -= g / gl * (step * fq.signum());
+        if p.distance(q) > cap {
+            return None;
+        }
+        fq = field.value(q);
+        if !fq.is_finite() {
+            return None;
+        }
+        if fq.abs() <= zero {
+            return Some(p.distance(q));
+        }
+        if outside(fq) != outside(f0) {
+            let c = crossing(field, p, f0, q, fq, ROOT_TOL_CELLS * cell);
+            return Some(p.distance(c));
+        }
+    }
+    None
+}
+
+/// Distance from `p` to the surface of `field` (world units), at most `cap`:
+/// along a Newton path (see [`projection`]), and, when that finds nothing within
+/// one cell, along the six axes too. The crossing found is bracketed on a
+/// straight segment from `p`, so it is a real surface point. Where `|f| / |∇f|`
+/// is within the root tolerance, that is the distance (f32 cannot resolve a
+/// crossing there: the field rounds to a few ulps of 0 along the surface).
+/// `None` where the field is not finite at `p`.
+pub(crate) fn to_surface(field: &dyn Field, p: Vec3, cell: f32, cap: f32) -> Option<f32> {
+    let f0 = field.value(p);
+    if !f0.is_finite() {
+        return None;
+    }
+    if f0 == 0.0 {
+        return Some(0.0);
+    }
+    let g = field.gradient(p);
+    let gl = g.length();
+    // Values within the root tolerance (first order) of 0 are on the surface.
+    let zero = if gl.is_finite() && gl > 0.0 {
+        ROOT_TOL_CELLS * cell * gl
+    } else {
+        0.0
+    };
+    if f0.abs() <= zero {
+        return Some(f0.abs() / gl);
+    }
+    let mut best = projection(field, p, f0, g, zero, cell, cap).map_or(cap, |t| t.min(cap));
+    if best > cell {
+        for dir in [
+            Vec3::X,
+            Vec3::NEG_X,
+            Vec3::Y,
+            Vec3::NEG_Y,
+            Vec3::Z,
+            Vec3::NEG_Z,
+        ] {
+            if let Some(t) = along(field, p, f0, dir, zero, best, cell) {
+                best = best.min(t);
+            }
+        }
+    }
+    Some(best)
+}
+
+/// Mesh to surface: the largest and the area-weighted mean distance (world units)
+/// over the vertices and, per triangle, the centroids of its `k`² sub-triangles
+/// (`k` = its longest edge in cells, rounded up, between 2 and 32).
+pub(crate) fn mesh_to_surface(
+    field: &dyn Field,
+    pos: &[Vec3],
+    tris: &[[u32; 3]],
+    listed: &[bool],
+    used: &[bool],
+    cell: f32,
+) -> (f32, f32) {
+    let cap = DISTANCE_CAP_CELLS * cell;
+    let d = |p: Vec3| to_surface(field, p, cell, cap).unwrap_or(0.0);
+    let vmax = pos
+        .par_iter()
+        .zip(used)
+        .filter(|(_, &u)| u)
+        .map(|(p, _)| d(*p))
+        .reduce(|| 0.0, f32::max);
+    let (tmax, sum, area) = tris
+        .par_iter()
+        .zip(listed)
+        .filter(|(_, &l)| l)
+        .map(|(t, _)| {
+            let [a, b, c] = t.map(|i| pos[i as usize]);
+            let longest = a.distance(b).max(b.distance(c)).max(c.distance(a));
+            let k = ((longest / cell).ceil() as u32).clamp(2, 32);
+            let (u, v) = ((b - a) / k as f32, (c - a) / k as f32);
+            let mut max = 0f32;
+            let mut sum = 0f64;
+            for i in 0..k {
+                for j in 0..k - i {
+                    // The upright sub-triangle at (i, j) and, but for the last
+                    // of a row, the inverted one beside it.
+                    let up = a + u * (i as f32 + 1.0 / 3.0) + v * (j as f32 + 1.0 / 3.0);
+                    let e = d(up);
+                    max = max.max(e);
+                    sum += e as f64;
+                    if j + 1 < k - i {
+                        let down = a + u * (i as f32 + 2.0 / 3.0) + v * (j as f32 + 2.0 / 3.0);
+                        let e = d(down);
+                        max = max.max(e);
+                        sum += e as f64;
+                    }
+                }
+            }
+            let area = 0.5 * (b - a).cross(c - a).length() as f64;
+            (max, sum / (k * k) as f64 * area, area)
+        })
+        .reduce(
+            || (0.0, 0.0, 0.0),
+            |x, y| (x.0.max(y.0), x.1 + y.1, x.2 + y.2),
+        );
+    let mean = if area > 0.0 { (sum / area) as f32 } else { 0.0 };
+    (vmax.max(tmax), mean)
+}
+
+/// What [`surface_to_mesh`] measured (world units).
+pub(crate) struct SurfaceToMesh {
+    pub max: f32,
+    pub mean: f32,
+    pub points: usize,
+    pub lost: usize,
+}
+
+/// Surface to mesh: the crossings (found on `field`) of the edges of `grid` and of
+/// the grid shifted by half a cell on every axis, and their distance to the
+/// nearest triangle of `tris`. The shifted grid's crossings are not the mesher's
+/// own samples, which a mesh of `grid` interpolates best; they count in the
+/// distances only. `points` and `lost` are `grid`'s crossings, the surface the
+/// mesher saw (the shifted grid also sees features thinner than a cell that
+/// `grid` misses).
+pub(crate) fn surface_to_mesh(field: &dyn Field, grid: &Grid, tris: &TriGrid) -> SurfaceToMesh {
+    let mut s = crossings_to_mesh(field, grid, tris);
+    if grid.cells.min_element() >= 2 {
+        let shifted = Grid {
+            origin: grid.corner_pos(UVec3::ZERO) + Vec3::splat(0.5 * grid.cell_size),
+            cells: grid.cells - UVec3::ONE,
+            offset: glam::IVec3::ZERO,
+            ..*grid
+        };
+        let t = crossings_to_mesh(field, &shifted, tris);
+        let n = s.points + t.points;
+        if n > 0 {
+            // Mean over both sets of crossings.
+            s.mean = ((s.mean as f64 * s.points as f64 + t.mean as f64 * t.points as f64)
+                / n as f64) as f32;
+        }
+        s.max = s.max.max(t.max);
+    }
+    s
+}
+
+/// Cells per side of the blocks [`crossings_to_mesh`] samples at once.
+const BLOCK: u32 = 8;
+
+/// [`surface_to_mesh`] on the edges of one grid, block by block in parallel.
+/// With a Lipschitz bound, a block whose centre is farther from the surface than
+/// its half diagonal allows has no crossing and is not sampled.
+fn crossings_to_mesh(field: &dyn Field, grid: &Grid, tris: &TriGrid) -> SurfaceToMesh {
+    let cell = grid.cell_size;
+    let cap = DISTANCE_CAP_CELLS * cell;
+    let lost_at = LOST_CELLS * cell;
+    let lip = field.lipschitz().filter(|l| l.is_finite() && *l > 0.0);
+    let nb = (grid.cells + UVec3::splat(BLOCK - 1)) / BLOCK;
+    let blocks: Vec<UVec3> = (0..nb.z)
+        .flat_map(|z| (0..nb.y).flat_map(move |y| (0..nb.x).map(move |x| UVec3::new(x, y, z))))
+        .collect();
+    let per = blocks
+        .par_iter()
+        .map(|&b| {
+            let mut acc = (0f32, 0f64, 0usize, 0usize);
+            let lo = b * BLOCK;
+            let top = (lo + UVec3::splat(BLOCK)).min(grid.cells);
+            let (plo, ptop) = (grid.corner_pos(lo), grid.corner_pos(top));
+            if let Some(l) = lip {
+                let fc = field.value((plo + ptop) * 0.5);
+                if fc.abs() > l * 0.5 * plo.distance(ptop) * 1.001 {
+                    return acc;
+                }
+            }
+            // The block's corners, sampled on a grid of the same lattice (so at
+            // bitwise the positions of `grid`'s corners).
+            let sub = Grid {
+                cells: top - lo,
+                offset: grid.offset + lo.as_ivec3(),
+                ..*grid
+            };
+            let c = sub.corners();
+            let mut v = vec![0f32; (c.x * c.y * c.z) as usize];
+            field.sample_grid(&sub, 0..c.z, &mut v);
+            let at = |k: UVec3| v[((k.z * c.y + k.y) * c.x + k.x) as usize];
+            // Corners this block owns: up to its far faces, which the next block
+            // owns, but for the grid's own far faces.
+            let own = UVec3::select(top.cmpeq(grid.cells), c, c - UVec3::ONE);
+            for z in 0..own.z {
+                for y in 0..own.y {
+                    for x in 0..own.x {
+                        let k = UVec3::new(x, y, z);
+                        let f0 = at(k);
+                        if !f0.is_finite() {
+                            continue;
+                        }
+                        for n in [k + UVec3::X, k + UVec3::Y, k + UVec3::Z] {
+                            if n.cmpge(c).any() {
+                                continue;
+                            }
+                            let f1 = at(n);
+                            if !f1.is_finite() || outside(f0) == outside(f1) {
+                                continue;
+                            }
+                            let (p0, p1) = (grid.corner_pos(lo + k), grid.corner_pos(lo + n));
+                            let q = crossing(field, p0, f0, p1, f1, ROOT_TOL_CELLS * cell);
+                            let d = tris.nearest(q, cap);
+                            acc.0 = acc.0.max(d);
+                            acc.1 += d as f64;
+                            acc.2 += 1;
+                            acc.3 += (d > lost_at) as usize;
+                        }
+                    }
+                }
+            }
+            acc
+        })
+        .reduce(
+            || (0.0, 0.0, 0, 0),
+            |a, b| (a.0.max(b.0), a.1 + b.1, a.2 + b.2, a.3 + b.3),
+        );
+    SurfaceToMesh {
+        max: per.0,
+        mean: if per.2 > 0 {
+            (per.1 / per.2 as f64) as f32
+        } else {
+            0.0
+        },
+        points: per.2,
+        lost: per.3,
+    }
+}

@@ -1,0 +1,223 @@
+//! Triangle-triangle contact in f64: a crossing (the triangles pass through each
+//! other) or a coplanar overlap (their interiors cover a common area), after
+//! Möller's interval test. Touching (at a point, along an edge, a vertex resting
+//! on a face) is neither.
+
+use glam::DVec3;
+
+/// How two triangles meet.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Contact {
+    /// Apart, or touching only.
+    None,
+    /// Crossing; `depth` is how far the shallower of the two pokes through the
+    /// other's plane (world units).
+    Cross {
+        /// Penetration depth.
+        depth: f64,
+    },
+    /// In one plane, interiors overlapping.
+    Coplanar,
+}
+
+/// Tolerances of [`contact`], in world units.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Tolerance {
+    /// A vertex this close to the other triangle's plane is on it; two triangles
+    /// whose vertices are all this close to each other's planes are coplanar; a
+    /// crossing must be longer than this.
+    pub length: f64,
+    /// A coplanar overlap must cover more than this area.
+    pub area: f64,
+}
+
+fn unit_normal(t: &[DVec3; 3]) -> Option<DVec3> {
+    let n = (t[1] - t[0]).cross(t[2] - t[0]);
+    let l = n.length();
+    (l > 0.0 && l.is_finite()).then(|| n / l)
+}
+
+/// Signed distances of `a`'s vertices to the plane through `b0` with unit normal
+/// `n`, snapped to zero within `tol`.
+fn plane_distances(a: &[DVec3; 3], n: DVec3, b0: DVec3, tol: f64) -> [f64; 3] {
+    a.map(|p| {
+        let d = n.dot(p - b0);
+        if d.abs() <= tol {
+            0.0
+        } else {
+            d
+        }
+    })
+}
+
+/// The interval that triangle `t` (signed distances `d` to the other plane) covers
+/// on the line of the two planes, measured along `dir`.
+fn interval(t: &[DVec3; 3], d: &[f64; 3], dir: DVec3) -> Option<(f64, f64)> {
+    let mut lo = f64::INFINITY;
+    let mut hi = f64::NEG_INFINITY;
+    let mut add = |p: DVec3| {
+        let s = dir.dot(p);
+        lo = lo.min(s);
+        hi = hi.max(s);
+    };
+    for i in 0..3 {
+        let j = (i + 1) % 3;
+        if d[i] == 0.0 {
+            add(t[i]);
+        }
+        if d[i] * d[j] < 0.0 {
+            add(t[i] + (t[j] - t[i]) * (d[i] / (d[i] - d[j])));
+        }
+    }
+    (lo <= hi).then_some((lo, hi))
+}
+
+/// How far `d` pokes through its plane on its thinner side.
+fn penetration(d: &[f64; 3]) -> f64 {
+    let above = d.iter().fold(0f64, |m, &x| m.max(x));
+    let below = d.iter().fold(0f64, |m, &x| m.max(-x));
+    above.min(below)
+}
+
+/// Area of `a` clipped to `b`, both seen along the unit normal `n` of their plane.
+fn overlap_area(a: &[DVec3; 3], b: &[DVec3; 3], n: DVec3) -> f64 {
+    // Orient b counter-clockwise about n.
+    let b = if (b[1] - b[0]).cross(b[2] - b[0]).dot(n) >= 0.0 {
+        *b
+    } else {
+        [b[0], b[2], b[1]]
+    };
+    let mut poly: Vec<DVec3> = a.to_vec();
+    for i in 0..3 {
+        let (e0, e1) = (b[i], b[(i + 1) % 3]);
+        let inward = n.cross(e1 - e0);
+        let side = |p: DVec3| inward.dot(p - e0);
+        let mut next = Vec::with_capacity(poly.len() + 1);
+        for k in 0..poly.len() {
+            let (p, q) = (poly[k], poly[(k + 1) % poly.len()]);
+            let (sp, sq) = (side(p), side(q));
+            if sp >= 0.0 {
+                next.push(p);
+            }
+            if (sp >= 0.0) != (sq >= 0.0) {
+                next.push(p + (q - p) * (sp / (sp - sq)));
+            }
+        }
+        poly = next;
+        if poly.len() < 3 {
+            return 0.0;
+        }
+    }
+    let mut area = DVec3::ZERO;
+    for k in 1..poly.len() - 1 {
+        area += (poly[k] - poly[0]).cross(poly[k + 1] - poly[0]);
+    }
+    0.5 * area.dot(n).abs()
+}
+
+/// How triangles `a` and `b` meet. Triangles of zero area meet nothing (they are
+/// counted elsewhere).
+pub(crate) fn contact(a: &[DVec3; 3], b: &[DVec3; 3], tol: Tolerance) -> Contact {
+    let (Some(na), Some(nb)) = (unit_normal(a), unit_normal(b)) else {
+        return Contact::None;
+    };
+    let da = plane_distances(a, nb, b[0], tol.length);
+    if da.iter().all(|&x| x > 0.0) || da.iter().all(|&x| x < 0.0) {
+        return Contact::None;
+    }
+    let db = plane_distances(b, na, a[0], tol.length);
+    if db.iter().all(|&x| x > 0.0) || db.iter().all(|&x| x < 0.0) {
+        return Contact::None;
+    }
+    // One lying in the other's plane makes the pair coplanar (a small triangle's
+    // normal is the less certain, so its plane may miss the other's far corners).
+    let in_b = da.iter().all(|&x| x == 0.0);
+    if in_b || db.iter().all(|&x| x == 0.0) {
+        let n = if in_b { nb } else { na };
+        return if overlap_area(a, b, n) > tol.area {
+            Contact::Coplanar
+        } else {
+            Contact::None
+        };
+    }
+    // Interiors that cross put each triangle on both sides of the other's plane;
+    // one resting on the other (a vertex or an edge in its plane, as two triangles
+    // sharing an edge do) only touches.
+    let depth = penetration(&da).min(penetration(&db));
+    if depth == 0.0 {
+        return Contact::None;
+    }
+    let dir = na.cross(nb);
+    let l = dir.length();
+    if l == 0.0 {
+        return Contact::None;
+    }
+    let dir = dir / l;
+    let (Some((a0, a1)), Some((b0, b1))) = (interval(a, &da, dir), interval(b, &db, dir)) else {
+        return Contact::None;
+    };
+    if a1.min(b1) - a0.max(b0) > tol.length {
+        Contact::Cross { depth }
+    } else {
+        Contact::None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TOL: Tolerance = Tolerance {
+        length: 1e-9,
+        area: 1e-12,
+    };
+
+    fn t(p: [[f64; 3]; 3]) -> [DVec3; 3] {
+        p.map(DVec3::from)
+    }
+
+    #[test]
+    fn crossing_touching_and_apart() {
+        let a = t([[0., 0., 0.], [2., 0., 0.], [0., 2., 0.]]);
+        // Pierces a's interior.
+        let b = t([[0.5, 0.5, -1.], [0.5, 0.5, 1.], [1.5, 0.2, 0.3]]);
+        assert!(matches!(contact(&a, &b, TOL), Contact::Cross { .. }));
+        // Rests a vertex on a's interior: touching.
+        let c = t([[0.5, 0.5, 0.], [0.5, 0.6, 1.], [0.7, 0.5, 1.]]);
+        assert_eq!(contact(&a, &c, TOL), Contact::None);
+        // Rests an edge on a's interior (as triangles meeting at a crease do).
+        let g = t([[0.2, 0.2, 0.], [0.8, 0.2, 0.], [0.5, 0.2, 1.]]);
+        assert_eq!(contact(&a, &g, TOL), Contact::None);
+        // Above it.
+        let d = t([[0., 0., 1.], [1., 0., 1.], [0., 1., 2.]]);
+        assert_eq!(contact(&a, &d, TOL), Contact::None);
+        // Shares vertex 0 and bends away: touching.
+        let e = t([[0., 0., 0.], [0., -1., 1.], [-1., 0., 1.]]);
+        assert_eq!(contact(&a, &e, TOL), Contact::None);
+        // Shares vertex 0 and cuts through a's interior.
+        let f = t([[0., 0., 0.], [1., 1., -1.], [1., 1., 1.]]);
+        match contact(&a, &f, TOL) {
+            Contact::Cross { depth } => assert!((depth - 1.0).abs() < 1e-12, "{depth}"),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn coplanar_overlap_and_shared_edges() {
+        let a = t([[0., 0., 0.], [2., 0., 0.], [0., 2., 0.]]);
+        let inside = t([[0.2, 0.2, 0.], [0.6, 0.2, 0.], [0.2, 0.6, 0.]]);
+        assert_eq!(contact(&a, &inside, TOL), Contact::Coplanar);
+        // Shares the edge 0-1, folded back over a.
+        let fold = t([[2., 0., 0.], [0., 0., 0.], [1., 0.5, 0.]]);
+        assert_eq!(contact(&a, &fold, TOL), Contact::Coplanar);
+        // Shares the edge on the other side: a flat neighbour.
+        let flat = t([[2., 0., 0.], [0., 0., 0.], [1., -0.5, 0.]]);
+        assert_eq!(contact(&a, &flat, TOL), Contact::None);
+        // Shares the edge at an angle.
+        let bent = t([[2., 0., 0.], [0., 0., 0.], [1., -0.5, 0.7]]);
+        assert_eq!(contact(&a, &bent, TOL), Contact::None);
+        // Coplanar, sharing a vertex only.
+        let corner = t([[0., 0., 0.], [-1., 0., 0.], [0., -1., 0.]]);
+        assert_eq!(contact(&a, &corner, TOL), Contact::None);
+    }
+}
