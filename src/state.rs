@@ -15,6 +15,28 @@ use kdcontour::world::{ChunkKey, ChunkMap, ChunkSet, Layout};
 use kdcontour::{Field, IndexedMesh};
 use std::sync::Arc;
 
+/// A chunk mesh ready to show: made into a Bevy mesh on the task thread, so
+/// showing it on the main thread is a move, however many show in one frame.
+pub(crate) struct ReadyMesh {
+    /// The threshold it was cut at.
+    pub threshold: f32,
+    /// Its triangles.
+    pub triangles: usize,
+    /// The Bevy mesh; `None` when the chunk has no surface.
+    pub mesh: Option<Mesh>,
+}
+
+impl ReadyMesh {
+    /// `mesh` (from the core) at `threshold`, as Bevy will show it.
+    pub fn new(threshold: f32, mesh: &IndexedMesh) -> Self {
+        ReadyMesh {
+            threshold,
+            triangles: mesh.triangle_count(),
+            mesh: (!mesh.is_empty()).then(|| crate::upload::to_bevy_mesh(mesh)),
+        }
+    }
+}
+
 /// Everything the plugin tracks for one loaded chunk.
 pub(crate) struct ChunkSlot {
     /// The chunk's entity (a child of the volume).
@@ -32,8 +54,8 @@ pub(crate) struct ChunkSlot {
     pub building: Option<Task<BuildOut>>,
     /// The running extraction (dropping it cancels it).
     pub extracting: Option<Task<ExtractOut>>,
-    /// A finished extraction waiting for upload: its threshold and mesh.
-    pub ready: Option<(f32, IndexedMesh)>,
+    /// A finished extraction waiting for upload.
+    pub ready: Option<ReadyMesh>,
     /// Its mesh waits for the rest of a level change, to be shown in the same
     /// frame as the chunks it replaces are dropped (see [`crate::horizon`]).
     pub held: bool,

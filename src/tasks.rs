@@ -9,7 +9,7 @@
 use crate::chunks::ChunkJob;
 use crate::messages::ChunkFailed;
 use crate::settings::KdContourSettings;
-use crate::state::VolumeState;
+use crate::state::{ReadyMesh, VolumeState};
 use crate::stats::{KdContourStats, MainThreadClock};
 use crate::volume::{ChunkStatus, KdChunk};
 use crate::KdContourSystems;
@@ -29,8 +29,7 @@ pub(crate) struct BuildOut {
 /// A finished extraction.
 pub(crate) struct ExtractOut {
     stamp: u64,
-    threshold: f32,
-    mesh: IndexedMesh,
+    mesh: ReadyMesh,
     ms: f64,
 }
 
@@ -92,7 +91,7 @@ impl VolumeState {
                 let Some(snapshot) = snapshot else {
                     // No tree (no surface yet, or its build failed): show nothing.
                     slot.extracting = None;
-                    slot.ready = Some((threshold, IndexedMesh::default()));
+                    slot.ready = Some(ReadyMesh::new(threshold, &IndexedMesh::default()));
                     return false;
                 };
                 let stamp = slot.extract_stamp;
@@ -102,9 +101,9 @@ impl VolumeState {
                     let t = std::time::Instant::now();
                     let mut mesh = IndexedMesh::default();
                     snapshot.extract(&mut mesh);
+                    let mesh = ReadyMesh::new(threshold, &mesh);
                     ExtractOut {
                         stamp,
-                        threshold,
                         mesh,
                         ms: t.elapsed().as_secs_f64() * 1e3,
                     }
@@ -234,7 +233,7 @@ fn poll_tasks(
                 slot.extracting = None;
                 stats.record_extraction(out.ms);
                 if out.stamp == slot.extract_stamp {
-                    slot.ready = Some((out.threshold, out.mesh));
+                    slot.ready = Some(out.mesh);
                 }
             }
         }

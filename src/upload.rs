@@ -108,7 +108,7 @@ impl Upload<'_, '_, '_, '_, '_, '_> {
         let Some(slot) = state.slots.get_mut(&k) else {
             return;
         };
-        let Some((threshold, mesh)) = slot.ready.take() else {
+        let Some(ready) = slot.ready.take() else {
             return;
         };
         slot.shown = true;
@@ -117,30 +117,32 @@ impl Upload<'_, '_, '_, '_, '_, '_> {
             return;
         };
         let failed = matches!(info.status, ChunkStatus::Failed(_));
-        info.threshold = threshold;
-        info.triangles = mesh.triangle_count();
-        if mesh.is_empty() {
-            self.commands
-                .entity(chunk)
-                .remove::<(Mesh3d, MeshMaterial3d<StandardMaterial>)>();
-            if !failed {
-                info.status = ChunkStatus::Empty;
-            }
-        } else {
-            let bevy_mesh = to_bevy_mesh(&mesh);
-            match existing {
-                Some(Mesh3d(handle)) if self.meshes.get(handle.id()).is_some() => {
-                    let _ = self.meshes.insert(handle.id(), bevy_mesh);
-                }
-                _ => {
-                    let handle = self.meshes.add(bevy_mesh);
-                    self.commands
-                        .entity(chunk)
-                        .insert((Mesh3d(handle), MeshMaterial3d(self.material.clone())));
+        info.threshold = ready.threshold;
+        info.triangles = ready.triangles;
+        match ready.mesh {
+            None => {
+                self.commands
+                    .entity(chunk)
+                    .remove::<(Mesh3d, MeshMaterial3d<StandardMaterial>)>();
+                if !failed {
+                    info.status = ChunkStatus::Empty;
                 }
             }
-            if !failed {
-                info.status = ChunkStatus::Meshed;
+            Some(bevy_mesh) => {
+                match existing {
+                    Some(Mesh3d(handle)) if self.meshes.get(handle.id()).is_some() => {
+                        let _ = self.meshes.insert(handle.id(), bevy_mesh);
+                    }
+                    _ => {
+                        let handle = self.meshes.add(bevy_mesh);
+                        self.commands
+                            .entity(chunk)
+                            .insert((Mesh3d(handle), MeshMaterial3d(self.material.clone())));
+                    }
+                }
+                if !failed {
+                    info.status = ChunkStatus::Meshed;
+                }
             }
         }
         self.meshed.write(ChunkMeshed {
@@ -148,7 +150,7 @@ impl Upload<'_, '_, '_, '_, '_, '_> {
             chunk,
             coord: k.coord,
             level: k.level,
-            triangles: mesh.triangle_count(),
+            triangles: ready.triangles,
         });
     }
 }
