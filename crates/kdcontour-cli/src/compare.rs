@@ -23,7 +23,7 @@ pub fn run(args: Compare) -> Result<(), String> {
         json,
         ..
     } = args.run;
-    let sampled = meshers::sample(field, &grid, &settings).map_err(|e| e.to_string())?;
+    let sampled = meshers::sample(field, &grid, &settings).map_err(|e| format!("{scene}: {e}"))?;
     if !json {
         say!("{scene} at res {res}, threshold {threshold} (errors in cells)");
         say!(

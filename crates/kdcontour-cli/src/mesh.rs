@@ -30,7 +30,7 @@ pub fn run(args: Mesh) -> Result<(), String> {
         ..
     } = run;
     let t0 = Instant::now();
-    let tree = KdTree::build(field, &grid, &settings).map_err(|e| e.to_string())?;
+    let tree = KdTree::build(field, &grid, &settings).map_err(|e| format!("{scene}: {e}"))?;
     let t1 = Instant::now();
     let mut mesh = IndexedMesh::default();
     settings

@@ -8,6 +8,9 @@ use std::process::{Command, Stdio};
 
 const BIN: &str = env!("CARGO_BIN_EXE_kdcontour");
 
+/// A small world with camera thresholds.
+const WORLD: [&str; 5] = ["world", "--scene", "sphere", "--camera", "0,0,0"];
+
 fn kdcontour(args: &[&str]) -> (i32, String, String) {
     let out = Command::new(BIN).args(args).output().expect("runs");
     (
@@ -37,6 +40,11 @@ fn refused(args: &[&str], needles: &[&str]) {
     for n in needles {
         assert!(first.contains(n), "{args:?}: missing `{n}` in\n{first}");
     }
+}
+
+/// `a` then `b`.
+fn cat<'a>(a: &[&'a str], b: &[&'a str]) -> Vec<&'a str> {
+    [a, b].concat()
 }
 
 fn s(p: &Path) -> &str {
@@ -114,16 +122,15 @@ fn silent_garbage_is_now_an_error() {
     .unwrap();
     let r = s(&ramp);
     let base = ["mesh", "--volume", r, "--dims", "10,10,10", "--type", "u8"];
-    let with = |extra: &[&'static str]| [&base[..], extra].concat();
     // An axis thinner than 2 cells at the default res.
     refused(
-        &with(&["--iso", "100", "--spacing", "100,1,1"]),
+        &cat(&base, &["--iso", "100", "--spacing", "100,1,1"]),
         &["ramp.raw", "0.64 cells", "use res 200 or more"],
     );
     // --iso outside the data: an error, and no mesh written.
     let out = d.join("iso.obj");
     refused(
-        &with(&["--iso", "1000", "--out", s(&out)]),
+        &cat(&base, &["--iso", "1000", "--out", s(&out)]),
         &[
             "--iso",
             "outside the voxel values (0 to 249)",
@@ -133,7 +140,7 @@ fn silent_garbage_is_now_an_error() {
     assert!(!out.exists());
     // NaN anywhere a vector is parsed.
     refused(
-        &with(&["--iso", "100", "--spacing", "NaN,1,1"]),
+        &cat(&base, &["--iso", "100", "--spacing", "NaN,1,1"]),
         &["`NaN` is not a finite number"],
     );
     refused(
@@ -199,7 +206,7 @@ fn hostile_meshes_and_scenes() {
     );
     refused(
         &["mesh", "--scene-file", s(&far), "--res", "8"],
-        &["noise evaluated too far"],
+        &["far.json: ", "noise evaluated too far"],
     );
     let node = write(
         "node.json",
@@ -234,15 +241,7 @@ fn hostile_meshes_and_scenes() {
 #[test]
 fn a_world_over_the_budget_is_refused_at_once() {
     refused(
-        &[
-            "world",
-            "--scene",
-            "sphere",
-            "--camera",
-            "0,0,0",
-            "--chunks",
-            "256,256,256",
-        ],
+        &cat(&WORLD, &["--chunks", "256,256,256"]),
         &[
             "a world of 256x256x256 chunks of 16^3 cells",
             "over the memory budget",
@@ -269,15 +268,7 @@ fn out_is_checked_first_and_never_truncated() {
         &["--out", "use a .obj or .ply extension"],
     );
     refused(
-        &[
-            "world",
-            "--scene",
-            "sphere",
-            "--camera",
-            "0,0,0",
-            "--out",
-            "/nonexistent/dir/w.obj",
-        ],
+        &cat(&WORLD, &["--out", "/nonexistent/dir/w.obj"]),
         &["--out", "does not exist"],
     );
     // The phantom is NIfTI: any other name is refused; .NII.GZ is recognised.

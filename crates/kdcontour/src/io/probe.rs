@@ -115,7 +115,7 @@ fn volume_input(
 
 /// The `mesh_any` target: the first byte picks a loader, the rest is its input;
 /// whatever loads is meshed at res 8 on one thread (budget 256 MiB) and checked
-/// with [`validate`]. `None` when the input or its meshing was refused (every
+/// with [`validate()`]. `None` when the input or its meshing was refused (every
 /// refusal is an error value; a panic is a bug).
 pub fn mesh_any(data: &[u8]) -> Option<MeshReport> {
     let (&pick, rest) = data.split_first()?;
