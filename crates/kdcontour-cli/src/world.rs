@@ -146,7 +146,9 @@ pub fn run(args: World) -> Result<(), String> {
     )
     .map_err(|e| e.to_string())?;
     let t0 = Instant::now();
-    world.build_all(&*loaded.field).map_err(|e| format!("{}: {e}", loaded.name))?;
+    world
+        .build_all(&*loaded.field)
+        .map_err(|e| format!("{}: {e}", loaded.name))?;
     let build_ms = t0.elapsed().as_secs_f64() * 1e3;
     match thresholds {
         Thresholds::Random(seed) => {

@@ -276,3 +276,15 @@ fn nifti_is_written_only_under_a_nifti_name() {
     let vol = volume::load_nifti(&upper, 1.5, Inside::Above).unwrap();
     assert_eq!(vol.dims, UVec3::splat(8));
 }
+
+#[test]
+fn an_endless_scene_file_is_refused_at_its_limit() {
+    let e = Input::scene_file(std::path::Path::new("/dev/zero"))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.starts_with("/dev/zero: ") && e.contains("longer than 67108864 bytes"),
+        "{e}"
+    );
+}

@@ -45,13 +45,7 @@ impl Input {
     /// A JSON CSG scene file (at most [`MAX_SCENE_FILE`] bytes), compiled; errors
     /// name the file.
     pub fn scene_file(path: &Path) -> Result<Input> {
-        let bytes = read_limited(path, MAX_SCENE_FILE, "a scene file may have")?;
-        let text = String::from_utf8(bytes).map_err(|e| {
-            bad(
-                path,
-                format!("byte {} is not UTF-8 text", e.utf8_error().valid_up_to()),
-            )
-        })?;
+        let text = read_scene_text(path)?;
         let node = CsgNode::from_json(&text).map_err(|e| bad(path, e.to_string()))?;
         let field = node.compile().map_err(|e| bad(path, e.to_string()))?;
         Ok(Input {
@@ -117,6 +111,18 @@ impl Input {
         }
         Ok(grid)
     }
+}
+
+/// The text of a scene file: at most [`MAX_SCENE_FILE`] bytes (an endless file
+/// such as `/dev/zero` is refused after that), UTF-8; errors name the file.
+pub fn read_scene_text(path: &Path) -> Result<String> {
+    let bytes = read_limited(path, MAX_SCENE_FILE, "a scene file may have")?;
+    String::from_utf8(bytes).map_err(|e| {
+        bad(
+            path,
+            format!("byte {} is not UTF-8 text", e.utf8_error().valid_up_to()),
+        )
+    })
 }
 
 /// Parses three comma-separated finite numbers, `X,Y,Z` (spaces allowed).

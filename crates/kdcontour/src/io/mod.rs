@@ -79,7 +79,7 @@ pub fn cut_quoted(message: &str) -> String {
 
 /// Writes `path` through `write` into a temporary file in the same directory,
 /// then renames it over `path`: a failed write never truncates an existing file.
-pub(crate) fn write_atomic(
+pub fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
 ) -> Result<(), Error> {
