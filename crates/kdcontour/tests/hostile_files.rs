@@ -275,6 +275,10 @@ fn nifti_is_written_only_under_a_nifti_name() {
     volume::write_nifti(&upper, &volume::phantom(8)).unwrap();
     let vol = volume::load_nifti(&upper, 1.5, Inside::Above).unwrap();
     assert_eq!(vol.dims, UVec3::splat(8));
+    // Too few voxels are raised to 2 per axis (0 used to underflow), all finite.
+    let tiny = volume::phantom(0);
+    assert_eq!(tiny.dims, UVec3::splat(2));
+    assert!(tiny.data.iter().all(|v| v.is_finite()));
 }
 
 #[test]

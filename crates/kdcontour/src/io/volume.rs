@@ -2,7 +2,7 @@
 //! read in [`super::nifti`] and re-exported here.
 
 use super::{bad, read_limited};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::field::volume::{Inside, SampledVolume};
 use crate::settings::{check_budget, DEFAULT_MEMORY_BUDGET};
 use glam::{UVec3, Vec3};
@@ -73,28 +73,18 @@ pub(crate) fn voxel_sizes(
     extra: u64,
     budget: u64,
 ) -> std::result::Result<(usize, usize), String> {
-    let what = format!("a volume of {}x{}x{} voxels", dims.x, dims.y, dims.z);
-    let too_large = |needed| {
-        Error::TooLarge {
-            what: what.clone(),
-            needed,
-            budget,
-        }
-        .to_string()
-    };
     let count = (dims.x as u64)
         .checked_mul(dims.y as u64)
         .and_then(|c| c.checked_mul(dims.z as u64));
+    // An overflowing size compares as u64::MAX bytes: over any budget.
     let needed = count
         .and_then(|c| c.checked_mul(size + 4))
-        .and_then(|b| b.checked_add(extra));
-    match (count, needed) {
-        (Some(count), Some(needed)) => {
-            check_budget(what.clone(), needed, budget).map_err(|e| e.to_string())?;
-            Ok((count as usize, (count * size) as usize))
-        }
-        _ => Err(too_large(u64::MAX)),
-    }
+        .and_then(|b| b.checked_add(extra))
+        .unwrap_or(u64::MAX);
+    let what = format!("a volume of {}x{}x{} voxels", dims.x, dims.y, dims.z);
+    check_budget(what, needed, budget).map_err(|e| e.to_string())?;
+    let count = count.expect("a count within the budget does not overflow");
+    Ok((count as usize, (count * size) as usize))
 }
 
 /// Loads a headerless voxel file of `dims` voxels of type `ty` (x fastest). The
@@ -233,7 +223,11 @@ pub(super) fn decode(bytes: &[u8], code: i16, count: usize, big_endian: bool) ->
 /// phantom (Kak and Slaney): a skull shell, brain, ventricles and small tumours,
 /// plus deterministic scanner noise of 1% of the skull's density. At iso 1.5 the
 /// surface is the thin skull (inside above).
+///
+/// `n` is at least 2 (smaller values are raised to 2, the fewest voxels a volume
+/// has per axis).
 pub fn phantom(n: u32) -> SampledVolume {
+    let n = n.max(2);
     // (semi-axes a, b, c; centre x, y, z; rotation about z in degrees; density)
     const E: [[f32; 8]; 10] = [
         [0.69, 0.92, 0.81, 0.0, 0.0, 0.0, 0.0, 2.0],
@@ -248,7 +242,7 @@ pub fn phantom(n: u32) -> SampledVolume {
         [0.023, 0.046, 0.02, 0.06, -0.605, 0.0, 0.0, 0.01],
     ];
     let step = 2.0 / (n - 1) as f32;
-    let mut data = Vec::with_capacity((n * n * n) as usize);
+    let mut data = Vec::with_capacity((n as usize).pow(3));
     for z in 0..n {
         for y in 0..n {
             for x in 0..n {
