@@ -46,25 +46,54 @@ struct Source {
     mesh: Option<PathBuf>,
 }
 
+/// A scene input only (`world`, which meshes [-1, 1]^3): no volume or mesh
+/// options, so its help lists only what it accepts.
+#[derive(clap::Args)]
+#[group(required = true, multiple = false)]
+pub struct SceneInput {
+    /// A built-in scene (see `kdcontour scenes`).
+    #[arg(long)]
+    scene: Option<String>,
+    /// A JSON CSG scene file (format: assets/scenes/README.md).
+    #[arg(long)]
+    scene_file: Option<PathBuf>,
+}
+
+impl SceneInput {
+    /// The scene or scene file named on the command line.
+    pub fn load(&self) -> Result<Loaded, String> {
+        load_scene(self.scene.as_deref(), self.scene_file.as_deref())
+            .expect("clap requires one input")
+    }
+}
+
+/// The built-in scene `name` or the scene file `file`, whichever is given.
+fn load_scene(name: Option<&str>, file: Option<&Path>) -> Option<Result<Loaded, String>> {
+    let loaded = match (name, file) {
+        (Some(name), _) => Loaded::scene(name),
+        (_, Some(path)) => Loaded::scene_file(path),
+        _ => return None,
+    };
+    Some(loaded.map_err(|e| e.to_string()))
+}
+
 impl Input {
     /// The scene, scene file, volume or mesh named on the command line.
     pub fn load(&self) -> Result<Loaded, String> {
         let src = &self.source;
-        let loaded = if let Some(name) = &src.scene {
-            Loaded::scene(name)
-        } else if let Some(path) = &src.scene_file {
-            Loaded::scene_file(path)
+        if let Some(loaded) = load_scene(src.scene.as_deref(), src.scene_file.as_deref()) {
+            loaded
         } else if let Some(path) = &src.volume {
-            return self.volume(path);
+            self.volume(path)
         } else {
             Loaded::mesh(src.mesh.as_ref().expect("clap requires one input"))
-        };
-        loaded.map_err(|e| e.to_string())
+                .map_err(|e| e.to_string())
+        }
     }
 
     /// The volume at `path`: NIfTI-1 by its extension, else raw voxels laid out as
-    /// `--dims`, `--type` and `--spacing` say. Warns when `--iso` is outside the
-    /// voxels' values.
+    /// `--dims`, `--type` and `--spacing` say. An `--iso` outside the voxels'
+    /// values is an error (there would be no surface).
     fn volume(&self, path: &Path) -> Result<Loaded, String> {
         let inside = match self.inside.as_str() {
             "above" => Inside::Above,
@@ -93,10 +122,8 @@ impl Input {
             volume::load_raw(path, dims, ty, self.spacing, iso, inside)
         }
         .map_err(|e| e.to_string())?;
-        let (lo, hi) = vol.range();
-        if !(lo..=hi).contains(&iso) {
-            eprintln!("warning: iso {iso} is outside the volume's values [{lo}, {hi}]: the mesh will be empty");
-        }
+        vol.check_iso(iso)
+            .map_err(|m| format!("{}: --iso: {m}", path.display()))?;
         Ok(Loaded::volume(path, vol))
     }
 }
@@ -134,7 +161,7 @@ impl RunArgs {
             ));
         }
         let loaded = input.load()?;
-        let grid = loaded.grid(self.res);
+        let grid = loaded.grid(self.res).map_err(|e| e.to_string())?;
         Ok((loaded, grid, threads(self.threads)))
     }
 
@@ -156,5 +183,15 @@ pub fn threads(threads: usize) -> Settings {
     Settings {
         threads,
         ..Default::default()
+    }
+}
+
+/// Checks `--out` before any work: a mesh name the writer knows, in a directory
+/// that takes new files (an existing file is not touched; it is replaced only
+/// once the new mesh is complete).
+pub fn check_out(out: Option<&Path>) -> Result<(), String> {
+    match out {
+        Some(p) => kdcontour::IndexedMesh::check_path(p).map_err(|e| format!("--out {e}")),
+        None => Ok(()),
     }
 }

@@ -24,10 +24,10 @@ pub fn run(args: Compare) -> Result<(), String> {
         json,
         ..
     } = args.run;
-    let sampled = meshers::sample(field, &grid, &settings).map_err(|e| e.to_string())?;
+    let sampled = meshers::sample(field, &grid, &settings).map_err(|e| format!("{scene}: {e}"))?;
     if !json {
-        println!("{scene} at res {res}, threshold {threshold} (errors in cells)");
-        println!(
+        say!("{scene} at res {res}, threshold {threshold} (errors in cells)");
+        say!(
             "{:<15} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>6} {:>6} {:>6}",
             "mesher",
             "triangles",
@@ -49,12 +49,12 @@ pub fn run(args: Compare) -> Result<(), String> {
             meshers::run(mesher, &sampled, threshold, &settings).map_err(|e| e.to_string())?;
         let r = validate_with(&mesh, &checks);
         if json {
-            println!(
+            say!(
                 "{}",
                 json_line(mesher.name(), scene, res, threshold, &r, &t)
             );
         } else {
-            println!(
+            say!(
                 "{:<15} {:>10} {:>9} {:>9.4} {:>9.4} {:>7.1}ms {:>7.1}ms {:>7.1}ms {:>6} {:>6} {:>6}",
                 mesher.name(),
                 r.triangles,
@@ -73,7 +73,7 @@ pub fn run(args: Compare) -> Result<(), String> {
             Mesher::Octree => octree_tris = Some(r.triangles),
             Mesher::KdTree if !json => {
                 if let Some(o) = octree_tris.filter(|&o| o > 0) {
-                    println!(
+                    say!(
                         "k-d / octree triangles: {:.3}",
                         r.triangles as f64 / o as f64
                     );

@@ -4,6 +4,13 @@
 //! One module per subcommand; [`args`] holds the options they share and [`output`]
 //! the JSON line `mesh` and `compare` print. This file only parses and dispatches.
 
+/// `println!` that exits quietly when stdout is closed ([`output::line`]).
+macro_rules! say {
+    ($($t:tt)*) => {
+        $crate::output::line(format_args!($($t)*))
+    };
+}
+
 mod args;
 mod compare;
 mod mesh;

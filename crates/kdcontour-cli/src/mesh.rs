@@ -21,6 +21,7 @@ pub struct Mesh {
 
 pub fn run(args: Mesh) -> Result<(), String> {
     let Mesh { input, run, out } = args;
+    crate::args::check_out(out.as_deref())?;
     let (loaded, grid, settings) = run.prepare(&input)?;
     let (scene, field) = (&loaded.name, &*loaded.field);
     let checks = run.checks(field, &grid);
@@ -31,7 +32,7 @@ pub fn run(args: Mesh) -> Result<(), String> {
         ..
     } = run;
     let t0 = Instant::now();
-    let tree = KdTree::build(field, &grid, &settings).map_err(|e| e.to_string())?;
+    let tree = KdTree::build(field, &grid, &settings).map_err(|e| format!("{scene}: {e}"))?;
     let t1 = Instant::now();
     let mut mesh = IndexedMesh::default();
     settings
@@ -52,15 +53,18 @@ pub fn run(args: Mesh) -> Result<(), String> {
             contour_ms,
         };
         let line = json_line("kdtree", scene, res, threshold, &report, &times);
-        println!("{line}");
+        say!("{line}");
     } else {
-        println!("scene      {scene} at res {res}, threshold {threshold}");
-        println!(
+        say!("scene      {scene} at res {res}, threshold {threshold}");
+        say!(
             "mesh       {} triangles, {} vertices, {} components, Euler {}",
-            report.triangles, report.vertices, report.components, report.euler
+            report.triangles,
+            report.vertices,
+            report.components,
+            report.euler
         );
         print_checks(&report);
-        println!(
+say!(
             "time       sample {:.2} ms, build {:.2} ms, contour {:.2} ms, total {:.2} ms (checks {:.2} ms)",
             tree.stats.sample_ms,
             tree.stats.build_ms,
@@ -68,7 +72,7 @@ pub fn run(args: Mesh) -> Result<(), String> {
             total_ms,
             (t3 - t2).as_secs_f64() * 1e3
         );
-        println!(
+        say!(
             "tree       {} nodes, {} components, {} bytes retained ({:.1} per node)",
             tree.nodes.len(),
             tree.comps.len(),
@@ -76,7 +80,7 @@ pub fn run(args: Mesh) -> Result<(), String> {
             tree.retained_bytes() as f64 / tree.nodes.len().max(1) as f64
         );
         if let Some(p) = out {
-            println!("wrote      {}", p.display());
+            say!("wrote      {}", p.display());
         }
     }
     Ok(())

@@ -3,6 +3,25 @@
 
 use kdcontour::meshers::Timings;
 use kdcontour::MeshReport;
+use std::io::Write;
+
+/// Prints one line to stdout. When the reader has gone (`kdcontour scenes | head
+/// -1`) the command stops quietly with status 0, as a command killed by SIGPIPE
+/// would, instead of panicking; any other write error is exit status 2.
+pub fn line(args: std::fmt::Arguments) {
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out
+        .write_fmt(args)
+        .and_then(|()| out.write_all(b"\n"))
+        .and_then(|()| out.flush())
+    {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        eprintln!("error: cannot write to stdout: {e}");
+        std::process::exit(2);
+    }
+}
 
 /// The JSON line every report prints (the keys `mesh --json` promises).
 pub fn json_line(
@@ -60,13 +79,16 @@ pub fn geometry_json(r: &MeshReport) -> serde_json::Value {
 
 /// The summary's `checks` and `error` lines.
 pub fn print_checks(r: &MeshReport) {
-    println!(
+    say!(
         "checks     watertight {}, manifold {}, oriented {}",
-        r.watertight, r.manifold, r.oriented
+        r.watertight,
+        r.manifold,
+        r.oriented
     );
-    println!(
+    say!(
         "error      max {:.4} cells, mean {:.4} cells",
-        r.max_error, r.mean_error
+        r.max_error,
+        r.mean_error
     );
     let flipped = r.flipped_triangles.map_or("-".into(), |n| n.to_string());
     println!(

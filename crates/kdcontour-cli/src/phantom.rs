@@ -9,7 +9,7 @@ pub struct Phantom {
     /// Voxels per axis.
     #[arg(long, default_value_t = 128)]
     res: u32,
-    /// The .nii or .nii.gz file to write.
+    /// The .nii or .nii.gz file to write (any case; other names are refused).
     #[arg(long)]
     out: PathBuf,
 }
@@ -19,8 +19,15 @@ pub fn run(args: Phantom) -> Result<(), String> {
     if !(8..=1024).contains(&res) {
         return Err(format!("--res must be 8 to 1024, got {res}"));
     }
+    if !volume::is_nifti(&out) {
+        return Err(format!(
+            "--out {}: the phantom is written as NIfTI; name it .nii or .nii.gz",
+            out.display()
+        ));
+    }
+    kdcontour::io::check_writable(&out).map_err(|e| format!("--out {e}"))?;
     volume::write_nifti(&out, &volume::phantom(res)).map_err(|e| e.to_string())?;
-    println!(
+    say!(
         "wrote {} ({res}^3 voxels; the skull is at --iso 1.5)",
         out.display()
     );

@@ -5,7 +5,7 @@ use kdcontour::scenes;
 pub fn run() -> Result<(), String> {
     for name in scenes::SCENES {
         let s = scenes::scene(name).map_err(|e| e.to_string())?;
-        println!("{:<12} {}", s.name, s.description);
+        say!("{:<12} {}", s.name, s.description);
     }
     Ok(())
 }

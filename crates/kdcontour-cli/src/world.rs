@@ -4,7 +4,7 @@
 
 mod levels;
 
-use crate::args::{threads, Input};
+use crate::args::{threads, SceneInput};
 use crate::output::print_checks;
 use kdcontour::io::input::{parse_uvec3, parse_vec3};
 use kdcontour::{validate, ChunkWorld, Field, IndexedMesh, Lod, MeshReport};
@@ -14,7 +14,7 @@ use std::time::Instant;
 #[derive(clap::Args)]
 pub struct World {
     #[command(flatten)]
-    input: Input,
+    input: SceneInput,
     /// Chunks along x, y, z; the world spans [-1, 1] along its longest side
     /// [default: 3,3,3; 16,16,16 with --levels]. With --levels this is the level-0
     /// grid: see --levels.
@@ -116,6 +116,7 @@ fn weld(
 }
 
 pub fn run(args: World) -> Result<(), String> {
+    crate::args::check_out(args.out.as_deref())?;
     let thresholds = Thresholds::parse(args.thresholds.as_deref(), args.camera)?;
     if let Some(spec) = &args.levels {
         return levels::run(&args, spec, thresholds);
@@ -134,9 +135,6 @@ pub fn run(args: World) -> Result<(), String> {
     } = args;
     let chunks = chunks.unwrap_or(glam::UVec3::splat(3));
     let loaded = input.load()?;
-    if loaded.bounds.is_some() {
-        return Err("world meshes [-1, 1]^3: use --scene or --scene-file".into());
-    }
     let cell = cell_size(chunks, chunk_res);
     let mut world = ChunkWorld::new(
         glam::Vec3::splat(-1.0),
@@ -148,7 +146,9 @@ pub fn run(args: World) -> Result<(), String> {
     )
     .map_err(|e| e.to_string())?;
     let t0 = Instant::now();
-    world.build_all(&*loaded.field).map_err(|e| e.to_string())?;
+    world
+        .build_all(&*loaded.field)
+        .map_err(|e| format!("{}: {e}", loaded.name))?;
     let build_ms = t0.elapsed().as_secs_f64() * 1e3;
     match thresholds {
         Thresholds::Random(seed) => {
@@ -178,7 +178,7 @@ pub fn run(args: World) -> Result<(), String> {
         .map(|c| world.threshold(c))
         .collect();
     if json {
-        println!(
+        say!(
             "{}",
             serde_json::json!({
                 "scene": loaded.name, "chunks": chunks.to_array(), "chunk_res": chunk_res,
@@ -190,21 +190,26 @@ pub fn run(args: World) -> Result<(), String> {
             })
         );
     } else {
-        println!(
+        say!(
             "world      {} in {}x{}x{} chunks of {chunk_res}^3 cells",
-            loaded.name, chunks.x, chunks.y, chunks.z
+            loaded.name,
+            chunks.x,
+            chunks.y,
+            chunks.z
         );
-        println!(
+        say!(
             "mesh       {} triangles ({seam_triangles} in seams), {} vertices, Euler {}",
-            r.triangles, r.vertices, r.euler
+            r.triangles,
+            r.vertices,
+            r.euler
         );
         print_checks(&r);
-        println!(
+        say!(
             "time       build {build_ms:.1} ms, contour {contour_ms:.1} ms; {} bytes retained",
             world.retained_bytes()
         );
         if let Some(p) = out {
-            println!("wrote      {}", p.display());
+            say!("wrote      {}", p.display());
         }
     }
     Ok(())

@@ -13,8 +13,8 @@ pub enum Error {
     /// The field returned NaN or infinity at a sample point.
     #[error(
         "the field returned {value} at ({x}, {y}, {z}); fields must be finite everywhere \
-         in the volume (check divisions by zero, sqrt of negatives, or an unbounded noise \
-         amplitude)",
+         in the volume (check divisions by zero, sqrt of negatives, an unbounded noise \
+         amplitude, or noise evaluated too far from its origin)",
         x = position.x, y = position.y, z = position.z
     )]
     NonFiniteSample {
@@ -33,6 +33,20 @@ pub enum Error {
         /// Cells in the grid.
         cells: u64,
         /// Estimated bytes the build needs.
+        needed: u64,
+        /// The configured budget.
+        budget: u64,
+    },
+    /// Something other than one grid (a volume after inflation, a mesh file, a
+    /// whole world of chunks) needs more memory than the budget allows.
+    #[error(
+        "{what} needs about {needed} bytes, over the memory budget of {budget} bytes; \
+         use a smaller input or raise the memory budget"
+    )]
+    TooLarge {
+        /// What would be too large, e.g. `a volume of 2048x2048x2048 voxels`.
+        what: String,
+        /// Estimated bytes it needs.
         needed: u64,
         /// The configured budget.
         budget: u64,

@@ -60,9 +60,19 @@ pub struct EdgeCrossing {
 pub fn estimate_bytes(grid: &Grid) -> u64 {
     let corners = grid.corner_count();
     let cells = grid.cell_count();
-    let c = grid.cells.as_u64vec3();
-    let surface_cells = 2 * (c.x * c.y + c.y * c.z + c.z * c.x);
-    corners * 4 + corners / 8 + cells * 4 + surface_cells * 8 * 420
+    corners * 4 + corners / 8 + cells * 4 + surface_bytes(grid.cells.as_u64vec3())
+}
+
+/// The surface-proportional part of [`estimate_bytes`] for a box of `cells`:
+/// patches and tree nodes for a surface as large as the box's six faces
+/// (saturating, so an absurd box compares as too large instead of wrapping).
+pub fn surface_bytes(cells: glam::U64Vec3) -> u64 {
+    let c = cells;
+    let faces =
+        c.x.saturating_mul(c.y)
+            .saturating_add(c.y.saturating_mul(c.z))
+            .saturating_add(c.z.saturating_mul(c.x));
+    faces.saturating_mul(2 * 8 * 420)
 }
 
 /// Checks the grid and the memory budget before anything is allocated.

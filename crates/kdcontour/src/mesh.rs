@@ -135,32 +135,42 @@ impl IndexedMesh {
         w.flush()
     }
 
-    /// Writes OBJ or PLY, chosen by the extension of `path` (any case). An unknown
-    /// extension is refused before anything is created, so an existing file of
-    /// another format is left as it was.
-    pub fn save(&self, path: &std::path::Path) -> Result<()> {
-        let io = |e: std::io::Error| Error::Io {
-            path: path.display().to_string(),
-            message: e.to_string(),
-        };
+    /// Checks, before any work, that [`IndexedMesh::save`] can write `path`: a
+    /// `.obj` or `.ply` name (any case) in a directory that takes new files. The
+    /// file itself is not touched.
+    pub fn check_path(path: &std::path::Path) -> Result<()> {
+        Self::writer(path)?;
+        crate::io::check_writable(path)
+    }
+
+    /// The writer for the extension of `path`.
+    fn writer(path: &std::path::Path) -> Result<MeshWriter> {
         let ext = path
             .extension()
             .and_then(|e| e.to_str())
             .map(|e| e.to_ascii_lowercase());
-        let write: fn(&Self, &mut std::fs::File) -> std::io::Result<()> = match ext.as_deref() {
-            Some("obj") => |m, f| m.write_obj(f),
-            Some("ply") => |m, f| m.write_ply(f),
-            _ => {
-                return Err(Error::Io {
-                    path: path.display().to_string(),
-                    message: "unknown mesh format; use a .obj or .ply extension".into(),
-                })
-            }
-        };
-        let mut f = std::fs::File::create(path).map_err(io)?;
-        write(self, &mut f).map_err(io)
+        match ext.as_deref() {
+            Some("obj") => Ok(|m, f| m.write_obj(f)),
+            Some("ply") => Ok(|m, f| m.write_ply(f)),
+            _ => Err(Error::Io {
+                path: path.display().to_string(),
+                message: "unknown mesh format; use a .obj or .ply extension".into(),
+            }),
+        }
+    }
+
+    /// Writes OBJ or PLY, chosen by the extension of `path` (any case). An unknown
+    /// extension is refused before anything is created, and the mesh goes to a
+    /// temporary file renamed over `path` once complete, so a failed write leaves
+    /// an existing file as it was.
+    pub fn save(&self, path: &std::path::Path) -> Result<()> {
+        let write = Self::writer(path)?;
+        crate::io::write_atomic(path, |w| write(self, w))
     }
 }
+
+/// Writes a mesh in one format.
+type MeshWriter = fn(&IndexedMesh, &mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>;
 
 #[cfg(test)]
 mod tests {

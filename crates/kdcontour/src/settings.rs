@@ -10,12 +10,31 @@
 
 use crate::error::{Error, Result};
 
+/// The default memory budget (4 GiB): [`Settings::memory_budget`], and the budget
+/// the file loaders of [`crate::io`] check a file's decoded size against before
+/// they allocate (voxels after inflation, mesh files; see [`check_budget`]).
+pub const DEFAULT_MEMORY_BUDGET: u64 = 4 << 30;
+
+/// Refuses `needed` bytes for `what` when they exceed `budget`, before anything is
+/// allocated.
+pub fn check_budget(what: impl Into<String>, needed: u64, budget: u64) -> Result<()> {
+    if needed > budget {
+        return Err(Error::TooLarge {
+            what: what.into(),
+            needed,
+            budget,
+        });
+    }
+    Ok(())
+}
+
 /// Build settings. Construct with `Settings { threads: 1, ..Default::default() }`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Settings {
     /// Worker threads; 0 uses the ambient rayon pool.
     pub threads: usize,
-    /// Refuse grids whose build would need more bytes than this (default 4 GiB).
+    /// Refuse grids, and bounded worlds, whose build would need more bytes than
+    /// this (default [`DEFAULT_MEMORY_BUDGET`], 4 GiB).
     pub memory_budget: u64,
     /// Most Illinois false-position steps that refine each edge crossing on the field
     /// (0 = linear interpolation only, right for sampled volumes); each edge stops
@@ -32,7 +51,7 @@ impl Default for Settings {
     fn default() -> Self {
         Settings {
             threads: 0,
-            memory_budget: 4 << 30,
+            memory_budget: DEFAULT_MEMORY_BUDGET,
             root_iterations: 12,
             partition: Partition::KdTree,
         }

@@ -213,11 +213,14 @@ fn broken_nifti_files() {
         be[40 + 2 * i..42 + 2 * i].copy_from_slice(&d.to_be_bytes());
     }
     be[70..72].copy_from_slice(&2i16.to_be_bytes());
+    for i in 0..3 {
+        be[80 + 4 * i..84 + 4 * i].copy_from_slice(&0.5f32.to_be_bytes());
+    }
     be[108..112].copy_from_slice(&352f32.to_be_bytes());
     be[344..348].copy_from_slice(b"n+1\0");
     be.extend_from_slice(&[0, 1, 2, 3, 4, 5, 6, 7]);
-    let (dims, _, data) = volume::parse_nifti(&be).unwrap();
-    assert_eq!(dims, UVec3::splat(2));
+    let (dims, spacing, data) = volume::parse_nifti(&be).unwrap();
+    assert_eq!((dims, spacing), (UVec3::splat(2), Vec3::splat(0.5)));
     assert_eq!(data, vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
 }
 
@@ -316,7 +319,7 @@ fn broken_mesh_files() {
         ("d.obj", "v 0 0 0\nf 1 1\n", "line 2: a face needs at least 3 vertices"),
         ("e.obj", "# nothing\nv 0 0 0\n", "no faces"),
         ("f.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n3 0 1 2\n", "out of range"),
-        ("g.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n\0\0\0\0", "truncated"),
+        ("g.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n\0\0\0\0", "element vertex claims 3 rows of at least 12 bytes, but only 4 bytes follow"),
         ("h.ply", "solid stl\n", "no end_header"),
         ("i.stl", "solid\n", "unknown mesh format"),
     ];

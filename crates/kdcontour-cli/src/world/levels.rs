@@ -165,7 +165,7 @@ pub fn run(args: &World, spec: &str, thresholds: Thresholds) -> Result<(), Strin
     let retained = world.retained_bytes();
     if args.json {
         let ts: Vec<f32> = keys.iter().map(|k| world.threshold(k)).collect();
-        println!(
+        say!(
             "{}",
             serde_json::json!({
                 "scene": loaded.name, "chunks": chunks.to_array(), "chunk_res": args.chunk_res,
@@ -180,7 +180,7 @@ pub fn run(args: &World, spec: &str, thresholds: Thresholds) -> Result<(), Strin
         );
         return Ok(());
     }
-    println!(
+    say!(
         "world      {} in {}x{}x{} level-0 chunks of {}^3 cells, levels {spec}: {} chunks",
         loaded.name,
         chunks.x,
@@ -190,21 +190,27 @@ pub fn run(args: &World, spec: &str, thresholds: Thresholds) -> Result<(), Strin
         keys.len()
     );
     for s in &stats {
-        println!(
+        say!(
             "level {}    {} chunks, {} triangles, build {:.1} ms, {} bytes retained",
-            s.level, s.chunks, s.triangles, s.build_ms, s.retained_bytes
+            s.level,
+            s.chunks,
+            s.triangles,
+            s.build_ms,
+            s.retained_bytes
         );
     }
-    println!(
+    say!(
         "mesh       {} triangles ({seam_triangles} in seams), {} vertices, Euler {}",
-        r.triangles, r.vertices, r.euler
+        r.triangles,
+        r.vertices,
+        r.euler
     );
     print_checks(&r);
-    println!(
+    say!(
         "time       build {build_ms:.1} ms, contour {contour_ms:.1} ms; {retained} bytes retained"
     );
     if let Some(p) = &args.out {
-        println!("wrote      {}", p.display());
+        say!("wrote      {}", p.display());
     }
     Ok(())
 }

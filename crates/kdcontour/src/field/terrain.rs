@@ -139,6 +139,31 @@ fn fbm(seed: u32, frequency: f32, octaves: u32) -> Fbm<Perlin> {
         .set_lacunarity(2.0)
 }
 
+/// The most features per world unit a noise `frequency` may ask for.
+pub const MAX_FREQUENCY: f32 = 1e6;
+
+/// The farthest noise-space coordinate evaluated (frequency times position,
+/// times 2 per extra octave). The `noise` crate floors coordinates into `isize`
+/// and panics past about 9.2e18, and past 2^53 an `f64` has no fraction left to
+/// make noise of; beyond this the terrain's value is NaN, which meshing reports
+/// as a non-finite sample at that point.
+pub const NOISE_REACH: f64 = 1e15;
+
+/// `noise` at `p`, or NaN when `p` scaled by `reach` leaves [`NOISE_REACH`].
+fn guarded<const N: usize>(noise: &impl NoiseFn<f64, N>, p: [f64; N], reach: f64) -> f64 {
+    if p.iter().all(|c| (c * reach).abs() <= NOISE_REACH) {
+        noise.get(p)
+    } else {
+        f64::NAN
+    }
+}
+
+/// How much the last of `octaves` octaves scales the first octave's coordinates
+/// (lacunarity 2).
+fn octave_reach(octaves: u32) -> f64 {
+    2f64.powi(octaves.saturating_sub(1).min(64) as i32)
+}
+
 /// Checks the shared noise parameters.
 pub(crate) fn check_noise(amplitude: f32, frequency: f32, octaves: u32) -> Result<(), String> {
     if !(amplitude.is_finite() && amplitude >= 0.0) {
@@ -146,8 +171,10 @@ pub(crate) fn check_noise(amplitude: f32, frequency: f32, octaves: u32) -> Resul
             "amplitude must be finite and >= 0, got {amplitude}"
         ));
     }
-    if !(frequency.is_finite() && frequency > 0.0) {
-        return Err(format!("frequency must be finite and > 0, got {frequency}"));
+    if !(frequency.is_finite() && frequency > 0.0 && frequency <= MAX_FREQUENCY) {
+        return Err(format!(
+            "frequency must be > 0 and at most {MAX_FREQUENCY} (features per world unit), got {frequency}"
+        ));
     }
     if !(1..=16).contains(&octaves) {
         return Err(format!("octaves must be 1 to 16, got {octaves}"));
@@ -170,7 +197,9 @@ impl Heightfield {
 
     /// The terrain height at `(x, z)`.
     pub fn height(&self, x: f32, z: f32) -> f32 {
-        self.params.base + self.params.amplitude * self.noise.get([x as f64, z as f64]) as f32
+        let reach = self.params.frequency as f64 * octave_reach(self.params.octaves);
+        self.params.base
+            + self.params.amplitude * guarded(&self.noise, [x as f64, z as f64], reach) as f32
     }
 
     /// The terrain height at `(x, z)` in f64 (for differences far from the origin).
@@ -280,6 +309,17 @@ impl Density {
 }
 
 impl Density {
+    /// Whether every noise this field evaluates at `q` stays within
+    /// [`NOISE_REACH`] (beyond it the value is NaN, reported as a non-finite
+    /// sample, instead of a panic inside the noise).
+    fn in_reach(&self, q: [f64; 3]) -> bool {
+        let mut reach = self.params.frequency as f64 * octave_reach(self.params.octaves);
+        if let Some(c) = &self.params.caves {
+            reach = reach.max(c.frequency as f64);
+        }
+        q.iter().all(|c| (c * reach).abs() <= NOISE_REACH)
+    }
+
     /// The two cave noises at `q`, if there are caves.
     fn cave_noise(&self, q: [f64; 3]) -> Option<(&CaveParams, f64, f64)> {
         match (&self.caves, &self.params.caves) {
@@ -296,6 +336,9 @@ impl Density {
 impl Field for Density {
     fn value(&self, p: Vec3) -> f32 {
         let q = [p.x as f64, p.y as f64, p.z as f64];
+        if !self.in_reach(q) {
+            return f32::NAN;
+        }
         let solid = p.y - self.params.base - self.params.amplitude * self.noise.get(q) as f32;
         let Some(c) = &self.params.caves else {
             return solid;
@@ -324,6 +367,9 @@ impl Field for Density {
     /// units out as at the origin, and one noise evaluation where central
     /// differences take six. Where the two terms are equal, the surface's.
     fn gradient(&self, p: Vec3) -> Vec3 {
+        if !self.in_reach(p.as_dvec3().to_array()) {
+            return Vec3::NAN;
+        }
         let q = p.as_dvec3();
         let amp = self.params.amplitude as f64;
         let (n, gn) = self.noise.get_grad(q);

@@ -50,6 +50,24 @@ impl SampledVolume {
             })
     }
 
+    /// Checks that a surface at `iso` can exist: `iso` lies strictly between the
+    /// smallest and largest voxel value. Otherwise every voxel is on one side and
+    /// the mesh would be empty (or, at the volume's faces, a box); the message
+    /// gives the range to choose from.
+    pub fn check_iso(&self, iso: f32) -> Result<(), String> {
+        let (lo, hi) = self.range();
+        if lo < iso && iso < hi {
+            return Ok(());
+        }
+        Err(if lo == hi {
+            format!("every voxel is {lo}: the volume holds no surface")
+        } else {
+            format!(
+                "iso {iso} is outside the voxel values ({lo} to {hi}), so there is no surface; give an iso strictly between them"
+            )
+        })
+    }
+
     fn voxel(&self, x: u32, y: u32, z: u32) -> f32 {
         self.data[(x + self.dims.x * (y + self.dims.y * z)) as usize]
     }

@@ -1,31 +1,65 @@
 //! OBJ and PLY triangle meshes (input side; see [`mod@crate::mesh`] for writing).
 
-use super::{bad, read};
+use super::{bad, cut, read_limited};
 use crate::error::Result;
+use crate::settings::DEFAULT_MEMORY_BUDGET;
 use glam::Vec3;
 use std::path::Path;
 
 // The mesh type lives with the field that reads it (field must not depend on io).
 pub use crate::field::mesh_sdf::TriMesh;
 
-/// Loads an `.obj` or `.ply` file (chosen by extension).
-pub fn load_mesh(path: &Path) -> Result<TriMesh> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase());
-    let bytes = read(path)?;
-    let mesh = match ext.as_deref() {
-        Some("obj") => parse_obj(&String::from_utf8_lossy(&bytes)),
-        Some("ply") => parse_ply(&bytes),
-        _ => Err("unknown mesh format; use a .obj or .ply file".to_string()),
+/// The largest mesh file read: an eighth of [`DEFAULT_MEMORY_BUDGET`] (512 MiB), as
+/// the parsed mesh and the distance field's tree over it take several times the
+/// file's bytes.
+pub const MAX_MESH_FILE: u64 = DEFAULT_MEMORY_BUDGET / 8;
+
+/// A triangle mesh file format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeshFormat {
+    /// Wavefront OBJ.
+    Obj,
+    /// PLY, ascii or binary.
+    Ply,
+}
+
+impl MeshFormat {
+    /// The format of `path` by its extension (any case), or a message naming the
+    /// valid ones.
+    pub fn of(path: &Path) -> std::result::Result<MeshFormat, String> {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase())
+            .as_deref()
+        {
+            Some("obj") => Ok(MeshFormat::Obj),
+            Some("ply") => Ok(MeshFormat::Ply),
+            _ => Err("unknown mesh format; use a .obj or .ply file".to_string()),
+        }
     }
-    .map_err(|m| bad(path, m))?;
+}
+
+/// Loads an `.obj` or `.ply` file (chosen by extension, any case); files over
+/// [`MAX_MESH_FILE`] are refused without reading them whole.
+pub fn load_mesh(path: &Path) -> Result<TriMesh> {
+    let format = MeshFormat::of(path).map_err(|m| bad(path, m))?;
+    let bytes = read_limited(path, MAX_MESH_FILE, "a mesh file may have")?;
+    mesh_from_bytes(&bytes, format).map_err(|m| bad(path, m))
+}
+
+/// Parses a mesh file's bytes and checks the mesh: at least one face, every vertex
+/// finite.
+pub fn mesh_from_bytes(bytes: &[u8], format: MeshFormat) -> std::result::Result<TriMesh, String> {
+    let mesh = match format {
+        MeshFormat::Obj => parse_obj(&String::from_utf8_lossy(bytes)),
+        MeshFormat::Ply => parse_ply(bytes),
+    }?;
     if mesh.triangles.is_empty() {
-        return Err(bad(path, "the mesh has no faces"));
+        return Err("the mesh has no faces".into());
     }
     if let Some(p) = mesh.positions.iter().find(|p| !p.is_finite()) {
-        return Err(bad(path, format!("vertex {p} is not finite")));
+        return Err(format!("vertex {p} is not finite"));
     }
     Ok(mesh)
 }
@@ -46,7 +80,7 @@ pub fn parse_obj(text: &str) -> std::result::Result<TriMesh, String> {
                         .ok_or(format!("line {line_no}: a vertex needs x, y and z"))?;
                     *v = tok
                         .parse()
-                        .map_err(|_| format!("line {line_no}: `{tok}` is not a number"))?;
+                        .map_err(|_| format!("line {line_no}: `{}` is not a number", cut(tok)))?;
                 }
                 m.positions.push(Vec3::from(c));
             }
@@ -54,9 +88,9 @@ pub fn parse_obj(text: &str) -> std::result::Result<TriMesh, String> {
                 let mut idx = Vec::new();
                 for tok in it {
                     let first = tok.split('/').next().unwrap_or("");
-                    let i: i64 = first
-                        .parse()
-                        .map_err(|_| format!("line {line_no}: `{tok}` is not a vertex index"))?;
+                    let i: i64 = first.parse().map_err(|_| {
+                        format!("line {line_no}: `{}` is not a vertex index", cut(tok))
+                    })?;
                     let count = m.positions.len() as i64;
                     let resolved = if i < 0 { count + i } else { i - 1 };
                     if i == 0 || resolved < 0 || resolved >= count {
@@ -166,15 +200,14 @@ pub fn parse_ply(bytes: &[u8]) -> std::result::Result<TriMesh, String> {
         match t.as_slice() {
             ["format", f, _] => format = Some(f.to_string()),
             ["element", name, n] => elements.push((
-                name.to_string(),
-                n.parse().map_err(|_| format!("bad element count `{n}`"))?,
+                cut(name),
+                n.parse().map_err(|_| {
+                    format!("bad element count `{}`; it must be a whole number", cut(n))
+                })?,
                 Vec::new(),
             )),
             ["property", "list", c, i, name] => {
-                let (c, i) = (
-                    Scalar::parse(c).ok_or(format!("unknown PLY type `{c}`"))?,
-                    Scalar::parse(i).ok_or(format!("unknown PLY type `{i}`"))?,
-                );
+                let (c, i) = (scalar(c)?, scalar(i)?);
                 elements
                     .last_mut()
                     .ok_or("property before any element")?
@@ -182,7 +215,7 @@ pub fn parse_ply(bytes: &[u8]) -> std::result::Result<TriMesh, String> {
                     .push(Prop::List(name.to_string(), c, i));
             }
             ["property", ty, name] => {
-                let s = Scalar::parse(ty).ok_or(format!("unknown PLY type `{ty}`"))?;
+                let s = scalar(ty)?;
                 elements
                     .last_mut()
                     .ok_or("property before any element")?
@@ -193,6 +226,19 @@ pub fn parse_ply(bytes: &[u8]) -> std::result::Result<TriMesh, String> {
         }
     }
     let format = format.ok_or("PLY header has no format line")?;
+    for (name, _, props) in &elements {
+        let has = |axis: &str| {
+            props
+                .iter()
+                .any(|p| matches!(p, Prop::One(n, _) if n.as_str() == axis))
+        };
+        if name == "vertex" && !(has("x") && has("y") && has("z")) {
+            return Err("the vertex element needs x, y and z properties".into());
+        }
+    }
+    // Rows of an element without properties hold nothing: skip them, whatever
+    // their count says.
+    elements.retain(|(_, _, props)| !props.is_empty());
     let body = &bytes[body_start..];
     let mut m = TriMesh::default();
     let mut vertex_count = 0usize;
@@ -200,6 +246,17 @@ pub fn parse_ply(bytes: &[u8]) -> std::result::Result<TriMesh, String> {
         "ascii" => {
             let text = String::from_utf8_lossy(body);
             let mut rows = text.lines().filter(|l| !l.trim().is_empty());
+            // Every row is a line: refuse counts the file cannot hold before reading.
+            let lines = rows.clone().count();
+            let claimed = elements
+                .iter()
+                .try_fold(0usize, |sum, (_, n, _)| sum.checked_add(*n));
+            if claimed.is_none_or(|c| c > lines) {
+                return Err(format!(
+                    "the header claims {} rows but the file has {lines} lines after end_header; fix the element counts",
+                    claimed.map_or("more than 2^64".to_string(), |c| c.to_string())
+                ));
+            }
             for (name, n, props) in &elements {
                 for r in 0..*n {
                     let row = rows
@@ -211,7 +268,7 @@ pub fn parse_ply(bytes: &[u8]) -> std::result::Result<TriMesh, String> {
                             .next()
                             .ok_or(format!("{name} {r}: a value is missing"))?;
                         t.parse()
-                            .map_err(|_| format!("{name} {r}: `{t}` is not a number"))
+                            .map_err(|_| format!("{name} {r}: `{}` is not a number", cut(t)))
                     };
                     read_row(name, props, &mut m, &mut vertex_count, &mut num)?;
                 }
@@ -221,6 +278,20 @@ pub fn parse_ply(bytes: &[u8]) -> std::result::Result<TriMesh, String> {
             let big = format == "binary_big_endian";
             let mut at = 0usize;
             for (name, n, props) in &elements {
+                // The fewest bytes a row takes (lists empty): refuse a count the
+                // rest of the file cannot hold before reading a row.
+                let least: usize = props
+                    .iter()
+                    .map(|p| match p {
+                        Prop::One(_, s) | Prop::List(_, s, _) => s.size(),
+                    })
+                    .sum();
+                let left = body.len() - at;
+                if n.checked_mul(least).is_none_or(|b| b > left) {
+                    return Err(format!(
+                        "element {name} claims {n} rows of at least {least} bytes, but only {left} bytes follow; fix the element count"
+                    ));
+                }
                 for r in 0..*n {
                     let mut num_at = |s: Scalar| -> std::result::Result<f64, String> {
                         let b = body.get(at..at + s.size()).ok_or(format!(
@@ -233,9 +304,17 @@ pub fn parse_ply(bytes: &[u8]) -> std::result::Result<TriMesh, String> {
                 }
             }
         }
-        other => return Err(format!("unknown PLY format `{other}`")),
+        other => return Err(format!("unknown PLY format `{}`", cut(other))),
     }
     Ok(m)
+}
+
+/// A PLY scalar type by name, or a message naming the valid ones.
+fn scalar(name: &str) -> std::result::Result<Scalar, String> {
+    Scalar::parse(name).ok_or(format!(
+        "unknown PLY type `{}`; use char, uchar, short, ushort, int, uint, float or double (or int8 ... float64)",
+        cut(name)
+    ))
 }
 
 fn push_face(

@@ -188,8 +188,15 @@ impl LevelWorld {
                 ),
             });
         }
+        let chunks = layout.chunks();
+        super::check_world_budget::<(ChunkKey, Slot)>(
+            (layout.hi() - layout.lo()).as_uvec3(),
+            chunks.len() as u64,
+            &self.chunk_grid(&ChunkKey::new(0, IVec3::ZERO)),
+            &self.settings,
+        )?;
         self.slots.retain(|k, _| layout.contains(k));
-        for k in layout.chunks() {
+        for k in chunks {
             self.slots.entry(k).or_insert(Slot {
                 tree: None,
                 built_for: Neighbourhood::default(),

@@ -85,7 +85,8 @@ pub struct ChunkWorld {
 
 impl ChunkWorld {
     /// A bounded world of `chunks` (X x Y x Z) chunks, none built yet. Every chunk
-    /// starts at `threshold`.
+    /// starts at `threshold`. A world over `settings.memory_budget` (its trees,
+    /// the samples of one chunk per thread, its slots) is refused here.
     pub fn new(
         origin: Vec3,
         cell_size: f32,
@@ -111,6 +112,12 @@ impl ChunkWorld {
                 reason: format!("{chunks} chunks of {chunk_res} cells exceed 2^30 cells"),
             });
         }
+        check_world_budget::<(IVec3, Slot)>(
+            chunks,
+            chunks.as_u64vec3().element_product(),
+            &world.chunk_grid(IVec3::ZERO),
+            &world.settings,
+        )?;
         world.bounds = Some(chunks);
         for z in 0..chunks.z as i32 {
             for y in 0..chunks.y as i32 {
@@ -510,6 +517,36 @@ impl ChunkWorld {
 }
 
 /// A chunk threshold must be finite.
+/// Checks a world against the memory budget before any chunk exists: the trees
+/// of a surface as large as the faces of its `extent` (in level-0 chunks), the
+/// samples of one chunk per worker thread, and one map `Entry` per chunk.
+pub(crate) fn check_world_budget<Entry>(
+    extent: UVec3,
+    chunk_count: u64,
+    chunk_grid: &Grid,
+    settings: &Settings,
+) -> Result<()> {
+    let res = chunk_grid.cells.max_element().saturating_sub(2).max(1) as u64;
+    let cells = extent.as_u64vec3() * res;
+    let threads = match settings.threads {
+        0 => rayon::current_num_threads(),
+        n => n,
+    } as u64;
+    // A hash map entry and its control byte.
+    let slot = std::mem::size_of::<Entry>() as u64 + 1;
+    let needed = crate::hermite::surface_bytes(cells)
+        .saturating_add(threads.saturating_mul(crate::hermite::estimate_bytes(chunk_grid)))
+        .saturating_add(chunk_count.saturating_mul(slot));
+    crate::settings::check_budget(
+        format!(
+            "a world of {}x{}x{} chunks of {res}^3 cells",
+            extent.x, extent.y, extent.z
+        ),
+        needed,
+        settings.memory_budget,
+    )
+}
+
 pub(crate) fn check_threshold(threshold: f32) -> Result<()> {
     if threshold.is_finite() {
         Ok(())

@@ -21,7 +21,10 @@
 //! `transform` (`translate`, `rotate_axis` + `rotate_degrees`, uniform `scale`); and
 //! noise terrain `heightfield` and `density` (see [`super::terrain`]).
 //!
-//! The module is split by job: [`CsgNode`] and its JSON in `schema`; the fields
+//! A scene nests at most [`MAX_DEPTH`] nodes deep.
+//!
+//! The module is split by job: [`CsgNode`] and its JSON in `schema`, read node by
+//! node in `parse`; the fields
 //! each primitive has, their ranges and the shape they build in `primitive` (one
 //! table, read by both validation and compilation) over the range checks of
 //! `param`; validation in `check`; compilation to the evaluable tree in `compile`;
@@ -33,9 +36,11 @@ mod check;
 mod compile;
 mod eval;
 mod param;
+mod parse;
 mod primitive;
 mod sample;
 mod schema;
 
 pub use compile::Csg;
+pub use parse::MAX_DEPTH;
 pub use schema::CsgNode;

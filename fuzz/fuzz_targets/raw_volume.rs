@@ -1,0 +1,11 @@
+#![no_main]
+//! Fuzzes the `raw_volume` loader (`kdcontour::io::probe::load`): any input must load or
+//! be refused with a message, never panic, hang or exhaust memory.
+
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    if let Err(message) = kdcontour::io::probe::load("raw_volume", data) {
+        assert!(!message.is_empty(), "a refusal must say why");
+    }
+});
