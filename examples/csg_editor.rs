@@ -62,7 +62,9 @@ struct Editor {
 }
 
 fn load(path: &Path) -> Result<Vec<Layer>, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    // Read with a size limit (a FIFO or /dev/zero is refused, not read forever).
+    let text = bevy_kdcontour::kdcontour::io::input::read_scene_text(path)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     // Errors name the line and column, or the node's path.
     layers::from_json(&text).map_err(|e| format!("{}: {e}", path.display()))
 }
@@ -193,7 +195,12 @@ fn redo(editor: &mut Editor, replace: &mut MessageWriter<ReplaceField>) {
 
 fn save(editor: &mut Editor) {
     let text = layers::to_json(editor.layers.list());
-    editor.message = Some(match std::fs::write(&editor.path, text) {
+    // Through a temporary file and a rename: a failed write leaves the old
+    // scene whole.
+    let written = bevy_kdcontour::kdcontour::io::write_atomic(&editor.path, |w| {
+        std::io::Write::write_all(w, text.as_bytes())
+    });
+    editor.message = Some(match written {
         Ok(()) => (format!("saved {}", editor.path.display()), false),
         Err(e) => (format!("{}: {e}", editor.path.display()), true),
     });

@@ -93,6 +93,9 @@ fn load(args: &Args) -> Result<(SampledVolume, String), String> {
     Ok((v, name))
 }
 
+/// Cells along the volume's longest side.
+const GRID_CELLS: u32 = 128;
+
 fn main() {
     let args = Args::parse();
     let (volume, name) = load(&args).unwrap_or_else(|e| common::fail(e));
@@ -107,6 +110,22 @@ fn main() {
     } else {
         0.5 * (range.0 + range.1)
     });
+    // An iso level outside the data has no surface (it would show nothing, or
+    // the volume's box).
+    if let Err(e) = volume.check_iso(iso) {
+        common::fail(format!("{name}: --iso {iso}: {e}"));
+    }
+    // Every axis needs two cells of the grid the volume is meshed on.
+    let (lo, hi) = volume.bounds();
+    let cells = bevy_kdcontour::kdcontour::Grid::covering(lo, hi, GRID_CELLS).cells;
+    if cells.min_element() < 2 {
+        common::fail(format!(
+            "{name}: the voxels span {:?} units; at {GRID_CELLS} cells along the longest \
+             side that is {cells} cells, and every axis needs at least 2 (check --dims and \
+             --spacing)",
+            (hi - lo).to_array()
+        ));
+    }
     let mut app = App::new();
     app.insert_resource(ClearColor(Color::srgb(0.1, 0.11, 0.13)));
     common::add_plugins(
@@ -149,7 +168,7 @@ fn setup(
     let extent = hi - lo;
     // About 128 cells along the longest side (the grid covering the voxels), in
     // chunks of 16 cells.
-    let grid = bevy_kdcontour::kdcontour::Grid::covering(lo, hi, 128);
+    let grid = bevy_kdcontour::kdcontour::Grid::covering(lo, hi, GRID_CELLS);
     let cell = grid.cell_size;
     let res = 16;
     let chunks = (grid.cells + UVec3::splat(res - 1)) / res;

@@ -319,6 +319,8 @@ fn init_volumes(
                              and min_y {min_y} <= max_y {max_y}"
                     ),
                 })
+            } else if let Err(e) = streaming_budget(vol, view_distance, max_y - min_y + 1, &core) {
+                Err(e)
             } else {
                 ChunkWorld::unbounded(
                     Vec3::ZERO,
@@ -365,6 +367,34 @@ fn init_volumes(
         }
         commands.entity(entity).insert(state);
     }
+}
+
+/// Bytes a chunk retains per cell of one face, measured on the terrain demo
+/// (a 32-cell chunk keeps about 130 KB): the budget's estimate of a loaded chunk.
+const RETAINED_PER_FACE_CELL: u64 = 128;
+
+/// Checks that every chunk a streaming volume loads within `view_distance`
+/// (over `rows` chunk rows) fits the memory budget, before any is loaded.
+fn streaming_budget(
+    vol: &KdVolume,
+    view_distance: f32,
+    rows: i32,
+    core: &kdcontour::Settings,
+) -> kdcontour::Result<()> {
+    let side = vol.chunk_res as f64 * vol.cell_size as f64;
+    let across = view_distance as f64 / side + 2.0;
+    let chunks = (std::f64::consts::PI * across * across * rows.max(1) as f64).min(1e18) as u64;
+    let res = vol.chunk_res as u64;
+    let needed = chunks.saturating_mul(res * res * RETAINED_PER_FACE_CELL);
+    kdcontour::settings::check_budget(
+        format!(
+            "streaming about {chunks} chunks of {res}^3 cells within view_distance \
+             {view_distance} (for a far view use KdVolume::horizon, whose chunks grow \
+             with the log of the distance)"
+        ),
+        needed,
+        core.memory_budget,
+    )
 }
 
 /// A volume whose field or iso changed: replay its edits on the new field and

@@ -411,18 +411,21 @@ fn streaming_terrain_loads_around_the_camera_and_drops_what_it_leaves() {
 
 #[test]
 fn bad_streaming_settings_are_reported_and_skipped() {
-    let mut app = app(false);
-    let v = app
-        .world_mut()
-        .spawn(KdVolume::streaming(torus(), 8, 1.0, f32::NAN))
-        .id();
-    app.update();
-    app.update();
-    assert!(app.world().get::<VolumeState>(v).is_none());
-    assert!(
-        app.world().get::<KdVolume>(v).is_none(),
-        "the bad volume is removed"
-    );
+    // NaN, and a view whose chunks could not fit the memory budget.
+    for view in [f32::NAN, 1e7] {
+        let mut app = app(false);
+        let v = app
+            .world_mut()
+            .spawn(KdVolume::streaming(torus(), 8, 1.0, view))
+            .id();
+        app.update();
+        app.update();
+        assert!(app.world().get::<VolumeState>(v).is_none(), "{view}");
+        assert!(
+            app.world().get::<KdVolume>(v).is_none(),
+            "the bad volume is removed ({view})"
+        );
+    }
 }
 
 #[test]

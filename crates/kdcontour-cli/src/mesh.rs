@@ -64,7 +64,7 @@ pub fn run(args: Mesh) -> Result<(), String> {
             report.euler
         );
         print_checks(&report);
-say!(
+        say!(
             "time       sample {:.2} ms, build {:.2} ms, contour {:.2} ms, total {:.2} ms (checks {:.2} ms)",
             tree.stats.sample_ms,
             tree.stats.build_ms,

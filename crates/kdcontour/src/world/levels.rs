@@ -189,11 +189,30 @@ impl LevelWorld {
             });
         }
         let chunks = layout.chunks();
-        super::check_world_budget::<(ChunkKey, Slot)>(
-            (layout.hi() - layout.lo()).as_uvec3(),
-            chunks.len() as u64,
-            &self.chunk_grid(&ChunkKey::new(0, IVec3::ZERO)),
-            &self.settings,
+        // Every chunk has `chunk_res`^3 cells whatever its level, so the world's
+        // surface memory is per chunk, not per level-0 cell of the region (a
+        // 4,096-cell view's region is 12,288 cells wide but holds ~1,500 chunks):
+        // budget the chunks' bookkeeping and the builds running at once; each
+        // build checks its own grid against the budget again before sampling.
+        let grid = self.chunk_grid(&ChunkKey::new(0, IVec3::ZERO));
+        let threads = match self.settings.threads {
+            0 => rayon::current_num_threads(),
+            n => n,
+        } as u64;
+        let entry = (std::mem::size_of::<(ChunkKey, Slot)>()
+            + std::mem::size_of::<(ChunkKey, Neighbourhood)>()
+            + 2) as u64;
+        let needed = (chunks.len() as u64)
+            .saturating_mul(entry)
+            .saturating_add(threads.saturating_mul(crate::hermite::estimate_bytes(&grid)));
+        crate::settings::check_budget(
+            format!(
+                "a level world of {} chunks of {}^3 cells",
+                chunks.len(),
+                self.chunk_res
+            ),
+            needed,
+            self.settings.memory_budget,
         )?;
         self.slots.retain(|k, _| layout.contains(k));
         for k in chunks {
