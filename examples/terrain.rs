@@ -87,11 +87,10 @@ fn main() {
             args.view_distance
         ));
     }
-    if !args.flat
-        && !(args.view_distance >= args.chunk_res as f32
-            && args.view_distance <= 65536.0
-            && (1..=args.view_distance as u32).contains(&args.level0_cells))
-    {
+    let horizon_ok = args.view_distance >= args.chunk_res as f32
+        && args.view_distance <= 65536.0
+        && (1..=args.view_distance as u32).contains(&args.level0_cells);
+    if !args.flat && !horizon_ok {
         common::fail(format!(
             "--view-distance must be {} to 65536 cells and --level0-cells 1 to the view \
              distance, got {} and {}",

@@ -113,7 +113,8 @@ impl VolumeWorld {
         }
     }
 
-    /// Number of chunks.
+    /// Number of chunks (of a level world: every chunk of its layout, built or
+    /// not).
     pub fn len(&self) -> usize {
         match self {
             VolumeWorld::Flat(w) => w.len(),

@@ -20,7 +20,7 @@
 //! ## Changing levels without a hole or an overlap
 //! A new layout adds chunks, drops chunks, and changes the neighbourhood (so the
 //! samples, see [`kdcontour::world::levels`]) or the seams of chunks it keeps. A
-//! level change is a [`Transition`]: it waits for a new mesh of every added
+//! level change is a transition: it waits for a new mesh of every added
 //! chunk, every kept chunk whose neighbourhood changed, and every chunk that
 //! owns a seam touching one of them or a dropped chunk. Those meshes are held
 //! back, and the dropped chunks stay shown, until all of them are ready; then

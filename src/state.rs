@@ -140,6 +140,12 @@ impl VolumeState {
         }
     }
 
+    /// Chunks loaded (with an entity, built or being built). A horizon volume's
+    /// world also lists the chunks of its layout that its view leaves out.
+    pub fn loaded_chunks(&self) -> usize {
+        self.slots.len()
+    }
+
     /// The chunk world (trees and thresholds).
     pub fn world(&self) -> &VolumeWorld {
         &self.world

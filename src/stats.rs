@@ -119,7 +119,7 @@ fn gather_stats(
     let (mut n, mut running, mut queued) = (0, 0, 0);
     for state in &volumes {
         let work = state.work_counts();
-        n += state.world().len();
+        n += state.loaded_chunks();
         running += work.running;
         queued += work.queued;
     }
