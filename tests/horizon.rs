@@ -7,9 +7,8 @@
 mod common;
 
 use bevy::prelude::*;
-use bevy_kdcontour::headless::HeadlessPlugins;
 use bevy_kdcontour::prelude::*;
-use common::{settle, shown};
+use common::{app_with, settle, shown};
 use kdcontour::field::FnField;
 use kdcontour::{Field, IndexedMesh, LevelWorld};
 use std::collections::HashMap;
@@ -23,21 +22,11 @@ const VIEW: u32 = 64;
 const ROWS: (i32, i32) = (-2, 1);
 
 fn app() -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        HeadlessPlugins,
-        KdContourPlugins {
-            settings: KdContourSettings {
-                lod: LodSettings {
-                    base: 0.01,
-                    near: 8.0,
-                    ..Default::default()
-                },
-                ..Default::default()
-            },
-        },
-    ));
-    app
+    app_with(LodSettings {
+        base: 0.01,
+        near: 8.0,
+        ..Default::default()
+    })
 }
 
 /// Rolling hills about 4 cells high, with a hollow under (40, 0, 20).

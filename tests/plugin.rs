@@ -8,29 +8,19 @@ mod common;
 use bevy::prelude::*;
 use bevy_kdcontour::headless::HeadlessPlugins;
 use bevy_kdcontour::prelude::*;
-use common::{settle, shown};
+use common::{app_with, settle, shown};
 use kdcontour::edit::EditedField;
 use kdcontour::{ChunkWorld, CsgNode, Field, IndexedMesh};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 
 fn app(lod: bool) -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        HeadlessPlugins,
-        KdContourPlugins {
-            settings: KdContourSettings {
-                lod: LodSettings {
-                    enabled: lod,
-                    base: 0.001,
-                    near: 0.3,
-                    ..Default::default()
-                },
-                ..Default::default()
-            },
-        },
-    ));
-    app
+    app_with(LodSettings {
+        enabled: lod,
+        base: 0.001,
+        near: 0.3,
+        ..Default::default()
+    })
 }
 
 fn torus() -> Arc<dyn Field> {

@@ -3,7 +3,23 @@
 
 use bevy::mesh::VertexAttributeValues;
 use bevy::prelude::*;
-use bevy_kdcontour::headless::run_until_settled;
+use bevy_kdcontour::headless::{run_until_settled, HeadlessPlugins};
+use bevy_kdcontour::prelude::*;
+
+/// A headless app with the plugin group and these LOD settings.
+pub fn app_with(lod: LodSettings) -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        HeadlessPlugins,
+        KdContourPlugins {
+            settings: KdContourSettings {
+                lod,
+                ..Default::default()
+            },
+        },
+    ));
+    app
+}
 
 /// Steps `app` until `volume` has no meshing work left (fails the test after
 /// 5,000 frames).
