@@ -27,9 +27,12 @@
 //! the held meshes are shown and the dropped chunks despawned in one frame. So
 //! the shown chunks always cover the loaded region exactly once, and never show
 //! two levels in the same place. While a transition runs, the next layout waits
-//! (the camera's latest position is used when it ends); edits and threshold
-//! changes go on as usual, and an edit that reaches a waiting chunk makes the
-//! transition wait for its rebuild too, so no edit is lost.
+//! (the camera's latest position is used when it ends), builds are scheduled
+//! before extractions (a landing build re-queues its neighbours' extractions),
+//! and a threshold change that would re-extract a held chunk waits for the end
+//! (so camera moves cannot starve it). Edits go on as usual: an edit that
+//! reaches a waiting chunk makes the transition wait for its rebuild too, so no
+//! edit is lost.
 //!
 //! The first layout of a volume replaces nothing: its chunks show as they land.
 
