@@ -93,9 +93,24 @@ pub struct KdVolume {
 impl KdVolume {
     /// A bounded volume of `chunks` chunks, with the default material.
     pub fn new(field: Arc<dyn Field>, chunks: UVec3, chunk_res: u32, cell_size: f32) -> Self {
+        Self::with_extent(
+            field,
+            VolumeExtent::Bounded { chunks },
+            chunk_res,
+            cell_size,
+        )
+    }
+
+    /// A volume of `extent` at iso 0 with the default material.
+    fn with_extent(
+        field: Arc<dyn Field>,
+        extent: VolumeExtent,
+        chunk_res: u32,
+        cell_size: f32,
+    ) -> Self {
         KdVolume {
             field: SharedField(field),
-            extent: VolumeExtent::Bounded { chunks },
+            extent,
             chunk_res,
             cell_size,
             iso: 0.0,
@@ -111,18 +126,12 @@ impl KdVolume {
         cell_size: f32,
         view_distance: f32,
     ) -> Self {
-        KdVolume {
-            field: SharedField(field),
-            extent: VolumeExtent::Streaming {
-                view_distance,
-                min_y: -2,
-                max_y: 1,
-            },
-            chunk_res,
-            cell_size,
-            iso: 0.0,
-            material: Handle::default(),
-        }
+        let extent = VolumeExtent::Streaming {
+            view_distance,
+            min_y: -2,
+            max_y: 1,
+        };
+        Self::with_extent(field, extent, chunk_res, cell_size)
     }
 
     /// Unbounded terrain seen to the horizon: chunk levels around the camera
@@ -131,19 +140,13 @@ impl KdVolume {
     /// (change them with [`KdVolume::with_level0`] and [`KdVolume::with_rows`]).
     /// `chunk_res` must be even.
     pub fn horizon(field: Arc<dyn Field>, chunk_res: u32, cell_size: f32, view_cells: u32) -> Self {
-        KdVolume {
-            field: SharedField(field),
-            extent: VolumeExtent::Horizon {
-                view_cells,
-                level0_cells: 2 * chunk_res,
-                min_y: -2,
-                max_y: 1,
-            },
-            chunk_res,
-            cell_size,
-            iso: 0.0,
-            material: Handle::default(),
-        }
+        let extent = VolumeExtent::Horizon {
+            view_cells,
+            level0_cells: 2 * chunk_res,
+            min_y: -2,
+            max_y: 1,
+        };
+        Self::with_extent(field, extent, chunk_res, cell_size)
     }
 
     /// A horizon volume whose finest chunks reach `cells` cells from the camera
