@@ -32,7 +32,8 @@ pub fn run(args: Mesh) -> Result<(), String> {
         ..
     } = run;
     let t0 = Instant::now();
-    let tree = KdTree::build(field, &grid, &settings).map_err(|e| format!("{scene}: {e}"))?;
+    let tree =
+        KdTree::build(field, &grid, &settings).map_err(|e| crate::args::build_error(&loaded, e))?;
     let t1 = Instant::now();
     let mut mesh = IndexedMesh::default();
     settings

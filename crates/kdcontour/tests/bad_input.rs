@@ -103,7 +103,7 @@ fn zero_resolution_and_degenerate_grids() {
 #[test]
 fn grid_over_the_memory_budget_is_refused_before_allocating() {
     let s = Settings {
-        memory_budget: 64 << 20,
+        memory_budget: kdcontour::Budget::bytes(64 << 20),
         ..Default::default()
     };
     // 4096^3 cells would need hundreds of GB; the check must come first.

@@ -3,7 +3,7 @@
 //! retained bytes, build time and triangles per level.
 
 use super::{cell_size, random_thresholds, weld, Thresholds, World};
-use crate::args::threads;
+use crate::args::settings;
 use crate::output::print_checks;
 use glam::{IVec3, UVec3, Vec3};
 use kdcontour::io::input::parse_vec3;
@@ -96,7 +96,7 @@ pub fn run(args: &World, spec: &str, thresholds: Thresholds) -> Result<(), Strin
         args.chunk_res,
         Layout::uniform(lo, hi, top).map_err(|e| e.to_string())?,
         0.01,
-        threads(args.threads),
+        settings(args.threads, args.memory.budget),
     )
     .map_err(|e| e.to_string())?;
     let layout = match levels {

@@ -145,6 +145,43 @@ fn exact(op: &Op) -> bool {
     }
 }
 
+impl Node {
+    /// Why this node (at `path`, named as the scene file's checks name it) or a
+    /// node below it gives no finite value at `p`: a noise node out of its reach.
+    fn explain(&self, p: Vec3, path: &str) -> Option<String> {
+        let all = |ch: &[Node]| {
+            ch.iter()
+                .enumerate()
+                .find_map(|(i, c)| c.explain(p, &format!("{path}.children[{i}]")))
+        };
+        let pair = |a: &Node, b: &Node| {
+            a.explain(p, &format!("{path}.a"))
+                .or_else(|| b.explain(p, &format!("{path}.b")))
+        };
+        let (kind, fault) = match &self.op {
+            Op::Prim(..) => return None,
+            Op::Union(ch)
+            | Op::Intersection(ch)
+            | Op::SmoothUnion(_, ch)
+            | Op::SmoothIntersection(_, ch) => return all(ch),
+            Op::Difference(a, b) | Op::SmoothDifference(_, a, b) => return pair(a, b),
+            Op::Transform {
+                inv_rot,
+                translate,
+                scale,
+                child,
+                ..
+            } => {
+                let q = *inv_rot * (p - *translate) / *scale;
+                return child.explain(q, &format!("{path}.child"));
+            }
+            Op::Heightfield(h) => ("heightfield", h.reach_fault(p)),
+            Op::Density(d) => ("density", d.reach_fault(p)),
+        };
+        fault.map(|f| format!("scene node `{path}` ({kind}): {f}"))
+    }
+}
+
 impl Field for Csg {
     fn value(&self, p: Vec3) -> f32 {
         self.root.value(p)
@@ -159,6 +196,11 @@ impl Field for Csg {
         out: &mut [f32],
     ) {
         self.root.sample(grid, z_range, out)
+    }
+    /// The first noise node (depth first) out of its reach at `p`, by its node
+    /// path: `scene node `root.child` (heightfield): noise evaluated too far ...`.
+    fn explain_non_finite(&self, p: Vec3) -> Option<String> {
+        self.root.explain(p, "root")
     }
     fn lipschitz(&self) -> Option<f32> {
         // Primitives are exact distances; min, max, the polynomial smooth min (whose
