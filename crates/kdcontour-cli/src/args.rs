@@ -69,7 +69,13 @@ pub struct Memory {
     /// together), checked before anything is allocated: bytes, or a size with a
     /// unit, e.g. 512MB or 4GiB (KB, MB, GB, TB are powers of 1000; KiB, MiB,
     /// GiB, TiB of 1024).
-    #[arg(long = "memory-budget", value_name = "SIZE", default_value = "4GiB", value_parser = Budget::parse)]
+    #[arg(
+        long = "memory-budget",
+        value_name = "SIZE",
+        default_value = "4GiB",
+        value_parser = Budget::parse,
+        allow_negative_numbers = true
+    )]
     pub budget: Budget,
 }
 

@@ -63,6 +63,9 @@ impl Budget {
             Some((i, _)) => format!("{}... ({} bytes in all)", &s[..i], s.len()),
             None => s.to_string(),
         };
+        let value: f64 = number
+            .parse()
+            .map_err(|_| format!("`{quoted}` is not a size; {valid}"))?;
         let scale: u64 = match unit.trim().to_ascii_lowercase().as_str() {
             "" | "b" => 1,
             "kb" => 1_000,
@@ -75,9 +78,6 @@ impl Budget {
             "tib" => 1 << 40,
             _ => return Err(format!("`{quoted}`: unknown size unit; {valid}")),
         };
-        let value: f64 = number
-            .parse()
-            .map_err(|_| format!("`{quoted}` is not a size; {valid}"))?;
         let bytes = value * scale as f64;
         if !(bytes >= 1.0) {
             return Err(format!(

@@ -182,20 +182,29 @@ fn octave_reach(octaves: u32) -> f64 {
     2f64.powi(octaves.saturating_sub(1).min(64) as i32)
 }
 
-/// Checks the shared noise parameters.
-pub(crate) fn check_noise(amplitude: f32, frequency: f32, octaves: u32) -> Result<(), String> {
+/// Checks the shared noise parameters; the error names the bad field and says
+/// what is valid.
+pub(crate) fn check_noise(
+    amplitude: f32,
+    frequency: f32,
+    octaves: u32,
+) -> Result<(), (&'static str, String)> {
     if !(amplitude.is_finite() && amplitude >= 0.0) {
-        return Err(format!(
-            "amplitude must be finite and >= 0, got {amplitude}"
+        return Err((
+            "amplitude",
+            format!("must be finite and >= 0, got {amplitude}"),
         ));
     }
     if !(frequency.is_finite() && frequency > 0.0 && frequency <= MAX_FREQUENCY) {
-        return Err(format!(
-            "frequency must be > 0 and at most {MAX_FREQUENCY} (features per world unit), got {frequency}"
+        return Err((
+            "frequency",
+            format!(
+                "must be > 0 and at most {MAX_FREQUENCY} (features per world unit), got {frequency}"
+            ),
         ));
     }
     if !(1..=16).contains(&octaves) {
-        return Err(format!("octaves must be 1 to 16, got {octaves}"));
+        return Err(("octaves", format!("must be 1 to 16, got {octaves}")));
     }
     Ok(())
 }

@@ -13,9 +13,9 @@ impl CsgNode {
             return check_all(&primitive.params, path);
         }
         let noise = |amplitude, frequency, octaves| {
-            terrain::check_noise(amplitude, frequency, octaves).map_err(|message| {
+            terrain::check_noise(amplitude, frequency, octaves).map_err(|(field, message)| {
                 SceneError::Semantic {
-                    path: path.to_string(),
+                    path: format!("{path}.{field}"),
                     message,
                 }
             })
