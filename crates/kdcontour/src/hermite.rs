@@ -466,6 +466,16 @@ impl Hermite {
                                 .value(grid.to_world(UVec3::from(h).as_vec3()))
                                 .copysign(v1);
                         }
+                        for (v, c) in [(v0, p0), (v1, UVec3::from(h).as_vec3())] {
+                            if !v.is_finite() {
+                                let position = grid.to_world(c);
+                                return Err(Error::NonFiniteSample {
+                                    position,
+                                    value: v,
+                                    cause: field.explain_non_finite(position),
+                                });
+                            }
+                        }
                         let dir = Vec3::AXES[a];
                         let t = find_root(field, grid, p0, dir, v0, v1, iterations)?;
                         let point = p0 + dir * t;

@@ -167,10 +167,10 @@ fn reach_fault(q: &[f64], reach: f64) -> Option<String> {
         return None;
     }
     Some(format!(
-        "noise evaluated too far from its origin: {far:e} units out in the node's own \
-         coordinates (after the transforms above it), times {reach:e} (frequency times \
+        "noise evaluated too far from its origin: {far:.3e} units out in the node's own \
+         coordinates (after the transforms above it), times {reach} (frequency times \
          2 per extra octave) is past {NOISE_REACH:e}, the farthest the noise can be \
-         evaluated; keep the node within {:e} units of where it is evaluated (a \
+         evaluated; keep the node within {:.3e} units of where it is evaluated (a \
          smaller translate, a larger scale) or lower its frequency",
         NOISE_REACH / reach
     ))
@@ -275,6 +275,11 @@ impl Field for Heightfield {
     fn gradient(&self, p: Vec3) -> Vec3 {
         let h = 1e-3 / self.params.frequency as f64;
         let (x, z) = (p.x as f64, p.z as f64);
+        // Out of the noise's reach the value is NaN, and so is the gradient
+        // (the unguarded f64 noise would panic there).
+        if reach_fault(&[x.abs() + h, z.abs() + h], self.reach()).is_some() {
+            return Vec3::NAN;
+        }
         let dx = (self.height64(x + h, z) - self.height64(x - h, z)) / (2.0 * h);
         let dz = (self.height64(x, z + h) - self.height64(x, z - h)) / (2.0 * h);
         Vec3::new(-dx as f32, 1.0, -dz as f32)
