@@ -79,7 +79,8 @@ impl Budget {
             _ => return Err(format!("`{quoted}`: unknown size unit; {valid}")),
         };
         let bytes = value * scale as f64;
-        if !(bytes >= 1.0) {
+        // Digits and dots only: never NaN.
+        if bytes < 1.0 {
             return Err(format!(
                 "`{quoted}` is no memory at all: every load and build would be refused; {valid}"
             ));
