@@ -140,7 +140,9 @@ impl Input {
                 .ok_or("a raw volume needs --type u8|u16|i16|f32")?;
             let ty = VoxelType::parse(ty)
                 .ok_or(format!("--type must be u8, u16, i16 or f32, got `{ty}`"))?;
-            volume::load_raw_within(path, dims, ty, self.spacing, iso, inside, budget)
+            let spacing = self.spacing;
+            let layout = volume::RawLayout { dims, ty, spacing };
+            volume::load_raw_within(path, layout, iso, inside, budget)
         }
         .map_err(|e| e.to_string())?;
         vol.check_iso(iso)

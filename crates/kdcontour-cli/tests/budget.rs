@@ -7,6 +7,15 @@
 mod common;
 
 use common::{cat, dir, kdcontour, refused, s, WORLD};
+use std::path::{Path, PathBuf};
+
+/// A phantom of `res`^3 voxels written by the command as `d/name`.
+fn phantom(d: &Path, name: &str, res: &str) -> PathBuf {
+    let path = d.join(name);
+    let (code, _, err) = kdcontour(&["phantom", "--res", res, "--out", s(&path)]);
+    assert_eq!(code, 0, "{err}");
+    path
+}
 
 #[test]
 fn every_command_that_allocates_documents_the_flag() {
@@ -43,9 +52,7 @@ fn a_bad_size_is_refused_with_what_is_valid() {
 #[test]
 fn a_small_budget_refuses_each_input_before_allocating() {
     let d = dir("budget");
-    let head = d.join("head.nii.gz");
-    let (code, _, err) = kdcontour(&["phantom", "--res", "32", "--out", s(&head)]);
-    assert_eq!(code, 0, "{err}");
+    let head = phantom(&d, "head.nii.gz", "32");
     // Many elements in few bytes: 1,000 vertices and 10,000 faces in 86 KB.
     let sphere = d.join("many.ply");
     let mut ply = "ply\nformat ascii 1.0\nelement vertex 1000\nproperty float x\nproperty float y\nproperty float z\nelement face 10000\nproperty list uchar int vertex_indices\nend_header\n".to_string();
@@ -124,9 +131,7 @@ fn a_small_budget_refuses_each_input_before_allocating() {
 #[test]
 fn one_budget_covers_the_loaded_input_and_its_grid() {
     let d = dir("whole");
-    let head = d.join("head.nii");
-    let (code, _, err) = kdcontour(&["phantom", "--res", "64", "--out", s(&head)]);
-    assert_eq!(code, 0, "{err}");
+    let head = phantom(&d, "head.nii", "64");
     let mesh = ["mesh", "--volume", s(&head), "--iso", "1.5", "--res", "32"];
     // The volume (1 MiB of voxels) loads within 20 MB; its grid does not fit
     // in what is left, and the message says the input holds part of it.
@@ -150,37 +155,22 @@ fn one_budget_covers_the_loaded_input_and_its_grid() {
 
 #[test]
 fn a_large_budget_is_taken_and_the_normal_cases_pass() {
+    let torus = ["mesh", "--scene", "torus", "--res", "24", "--memory-budget"];
+    let sphere = [
+        "compare",
+        "--scene",
+        "sphere",
+        "--res",
+        "16",
+        "--memory-budget",
+    ];
     for args in [
-        &[
-            "mesh",
-            "--scene",
-            "torus",
-            "--res",
-            "24",
-            "--memory-budget",
-            "512MB",
-        ][..],
-        &[
-            "mesh",
-            "--scene",
-            "torus",
-            "--res",
-            "24",
-            "--memory-budget",
-            "1.5 GiB",
-        ],
-        &[
-            "compare",
-            "--scene",
-            "sphere",
-            "--res",
-            "16",
-            "--memory-budget",
-            "64MiB",
-        ],
-        &cat(&WORLD, &["--memory-budget", "1073741824"]),
+        cat(&torus, &["512MB"]),
+        cat(&torus, &["1.5 GiB"]),
+        cat(&sphere, &["64MiB"]),
+        cat(&WORLD, &["--memory-budget", "1073741824"]),
     ] {
-        let (code, _, err) = kdcontour(args);
+        let (code, _, err) = kdcontour(&args);
         assert_eq!(code, 0, "{args:?}: {err}");
     }
 }

@@ -8,7 +8,7 @@ use kdcontour::field::mesh_sdf::MeshSdf;
 use kdcontour::field::volume::Inside;
 use kdcontour::io::input::Input;
 use kdcontour::io::mesh::{load_mesh, load_mesh_within, mesh_from_bytes_within, MeshFormat};
-use kdcontour::io::volume::{self, load_raw_within, VoxelType};
+use kdcontour::io::volume::{self, load_raw_within, RawLayout, VoxelType};
 use kdcontour::world::Layout;
 use kdcontour::{Budget, ChunkWorld, Error, Grid, IndexedMesh, KdTree, LevelWorld, Settings};
 use std::path::PathBuf;
@@ -37,15 +37,12 @@ fn a_small_budget_refuses_a_volume_before_reading_it() {
     let dims = UVec3::new(100, 100, 100);
     let small = Budget::bytes(1 << 20);
     let load = |budget| {
-        load_raw_within(
-            "/dev/zero".as_ref(),
+        let layout = RawLayout {
             dims,
-            VoxelType::U16,
-            Vec3::ONE,
-            0.5,
-            Inside::Above,
-            budget,
-        )
+            ty: VoxelType::U16,
+            spacing: Vec3::ONE,
+        };
+        load_raw_within("/dev/zero".as_ref(), layout, 0.5, Inside::Above, budget)
     };
     over(load(small).unwrap_err(), "100x100x100 voxels", "1 MiB");
     // The default reads it (and finds it longer than the dims say).

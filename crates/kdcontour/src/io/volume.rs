@@ -99,22 +99,22 @@ pub fn load_raw(
     iso: f32,
     inside: Inside,
 ) -> Result<SampledVolume> {
-    load_raw_within(path, dims, ty, spacing, iso, inside, Budget::DEFAULT)
+    let layout = RawLayout { dims, ty, spacing };
+    load_raw_within(path, layout, iso, inside, Budget::DEFAULT)
 }
 
-/// Loads a headerless voxel file of `dims` voxels of type `ty` (x fastest). The
-/// stored and decoded sizes are checked against `budget` before reading, and no
-/// more than the voxels `dims` describe (plus one byte, to tell a longer file) is
+/// Loads a headerless voxel file laid out as `layout` says. The stored and
+/// decoded sizes are checked against `budget` before reading, and no more than
+/// the voxels the layout describes (plus one byte, to tell a longer file) is
 /// read.
 pub fn load_raw_within(
     path: &Path,
-    dims: UVec3,
-    ty: VoxelType,
-    spacing: Vec3,
+    layout: RawLayout,
     iso: f32,
     inside: Inside,
     budget: Budget,
 ) -> Result<SampledVolume> {
+    let RawLayout { dims, ty, spacing } = layout;
     check_dims(dims)
         .and_then(|()| check_spacing(spacing))
         .map_err(|m| bad(path, m))?;
@@ -127,7 +127,6 @@ pub fn load_raw_within(
             dims.x, dims.y, dims.z
         ),
     )?;
-    let layout = RawLayout { dims, ty, spacing };
     decode_raw(&bytes, layout, iso, inside, budget).map_err(|m| bad(path, m))
 }
 
@@ -147,10 +146,14 @@ pub fn raw_from_bytes(
 }
 
 /// How a raw file's voxels are laid out.
-struct RawLayout {
-    dims: UVec3,
-    ty: VoxelType,
-    spacing: Vec3,
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RawLayout {
+    /// Voxels along x, y, z (x fastest in the file).
+    pub dims: UVec3,
+    /// The stored type of each voxel.
+    pub ty: VoxelType,
+    /// Voxel spacing along x, y, z (world units).
+    pub spacing: Vec3,
 }
 
 /// [`raw_from_bytes`] with the decoded voxels checked against `budget`.

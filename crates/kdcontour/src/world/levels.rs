@@ -102,33 +102,6 @@ impl PreparedLayout {
         })
     }
 
-    /// Checks a level world of `chunks` chunks of `chunk_res`^3 cells against
-    /// `settings.memory_budget`: every chunk's bookkeeping and the builds running
-    /// at once (each build checks its own grid again before sampling). Call it
-    /// with the most chunks a layout can have (its level-0 chunks) before building
-    /// a large [`Layout`]; [`LevelWorld::set_layout`] checks the real count.
-    pub fn check_budget(chunks: u64, chunk_res: u32, settings: &Settings) -> Result<()> {
-        // Every chunk has `chunk_res`^3 cells whatever its level, so the world's
-        // surface memory is per chunk, not per level-0 cell of the region (a
-        // 4,096-cell view's region is 12,288 cells wide but holds ~1,500 chunks).
-        let grid = level_grid(Vec3::ZERO, 1.0, chunk_res, &ChunkKey::new(0, IVec3::ZERO));
-        let threads = match settings.threads {
-            0 => rayon::current_num_threads(),
-            n => n,
-        } as u64;
-        let entry = (std::mem::size_of::<(ChunkKey, Slot)>()
-            + std::mem::size_of::<(ChunkKey, Neighbourhood)>()
-            + 2) as u64;
-        let needed = chunks
-            .saturating_mul(entry)
-            .saturating_add(threads.saturating_mul(crate::hermite::estimate_bytes(&grid)));
-        crate::settings::check_budget(
-            format!("a level world of {chunks} chunks of {chunk_res}^3 cells"),
-            needed,
-            settings.memory_budget,
-        )
-    }
-
     /// The layout.
     pub fn layout(&self) -> &Layout {
         &self.layout
