@@ -217,7 +217,7 @@ fn level_changes_and_edits_rebuild_the_stale_chunks_and_stay_closed() {
             BrushOp::Subtract
         };
         field = field.with_edit(Brush::sphere(centre, 0.2, op)).unwrap();
-        let touched = w.chunks_near_edit(centre, 0.2);
+        let touched = w.edited(centre, 0.2);
         assert!(!touched.is_empty() && touched.len() < w.chunks().len());
         w.build(&touched, &field).unwrap();
         let m = check(&w, &format!("edit {step}"));
@@ -228,6 +228,67 @@ fn level_changes_and_edits_rebuild_the_stale_chunks_and_stay_closed() {
         }
         assert_eq!(fresh.extract_all(), m, "step {step}: incremental differs");
     }
+}
+
+/// Counts the field's evaluations.
+struct Counting<'a>(&'a dyn Field, std::sync::atomic::AtomicUsize);
+
+impl Field for Counting<'_> {
+    fn value(&self, p: Vec3) -> f32 {
+        self.1.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.0.value(p)
+    }
+}
+
+#[test]
+fn a_chunk_whose_neighbour_changes_level_is_rebuilt_from_its_kept_samples() {
+    let scene = scenes::scene("gyroid").unwrap();
+    let field = &*scene.field;
+    // The same level changes with samples kept and without.
+    let mut evaluations = Vec::new();
+    let mut meshes = Vec::new();
+    let mut retained = Vec::new();
+    for keep in [true, false] {
+        let counting = Counting(field, 0.into());
+        let cell = 2.0 / (REGION as u32 * RES) as f32;
+        let mut w = LevelWorld::new(
+            Vec3::splat(-1.0),
+            cell,
+            RES,
+            random_layout(5),
+            0.01,
+            Settings::default(),
+        )
+        .unwrap();
+        w.keep_samples = keep;
+        w.build_all(&counting).unwrap();
+        retained.push(w.retained_bytes());
+        counting.1.store(0, std::sync::atomic::Ordering::Relaxed);
+        let stale = w.set_layout(random_layout(6)).unwrap();
+        // Only the chunks already built before (a neighbour changed level).
+        let rebuilt: Vec<ChunkKey> = stale
+            .into_iter()
+            .filter(|k| random_layout(5).contains(k))
+            .collect();
+        assert!(!rebuilt.is_empty());
+        w.build(&rebuilt, &counting).unwrap();
+        evaluations.push(counting.1.load(std::sync::atomic::Ordering::Relaxed));
+        let new: Vec<ChunkKey> = w.stale();
+        w.build(&new, field).unwrap();
+        meshes.push(check(&w, &format!("keep {keep}")));
+    }
+    assert_eq!(meshes[0], meshes[1], "kept samples change the mesh");
+    // The kept samples are counted in the retained bytes.
+    assert!(retained[0] > retained[1], "{retained:?}");
+    let per_chunk = (RES + 3).pow(3) as usize;
+    assert!(
+        evaluations[0] + per_chunk < evaluations[1],
+        "kept samples saved nothing: {evaluations:?} evaluations"
+    );
+    println!(
+        "level change rebuilds: {} evaluations from kept samples, {} re-sampling",
+        evaluations[0], evaluations[1]
+    );
 }
 
 #[test]

@@ -108,6 +108,8 @@ pub fn run(args: &World, spec: &str, thresholds: Thresholds) -> Result<(), Strin
         settings,
     )
     .map_err(|e| e.to_string())?;
+    // Built once: no level change will need the samples again.
+    world.keep_samples = false;
     let layout = match levels {
         Levels::Random(seed) => Layout::random(lo, hi, top, SPLIT, seed),
         Levels::Camera(cam) => Layout::around(lo, hi, top, world.to_chunk_units(cam), RING),

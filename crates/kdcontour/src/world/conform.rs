@@ -10,6 +10,7 @@ use crate::kdtree::{self, KdTree};
 use crate::Settings;
 use glam::{IVec3, UVec3, Vec3};
 use std::cell::Cell;
+use std::sync::Arc;
 
 /// What a chunk's samples depend on besides the field: the layout around it.
 /// A chunk whose neighbourhood changes is rebuilt.
@@ -45,7 +46,25 @@ pub struct LevelBuild {
     pub neighbourhood: Neighbourhood,
     /// Build settings.
     pub settings: Settings,
+    /// The field's samples of `grid` from an earlier build of this chunk, kept
+    /// by its world ([`super::levels::LevelWorld::keep_samples`]): a chunk
+    /// rebuilt because a neighbour changed level conforms these again instead
+    /// of sampling. They must come from the field the build is given.
+    pub kept: Option<Arc<[f32]>>,
 }
+
+/// A chunk's tree and the field samples it was built from (none when the
+/// field's bound proved one sign and nothing was sampled).
+pub struct BuiltChunk {
+    /// The chunk's tree.
+    pub tree: KdTree,
+    /// The field's samples of the chunk's grid, before the level rules.
+    pub samples: Option<Arc<[f32]>>,
+}
+
+/// A chunk's samples after the level rules, and the field's samples before
+/// them (none when nothing was sampled).
+type Sampled = (Vec<f32>, Option<Arc<[f32]>>);
 
 /// Fine cells past its grid that conforming reads ([`LevelBuild::conformed`]).
 const CONFORM_MARGIN: u32 = 3;
@@ -57,16 +76,23 @@ const TINY: f32 = -f32::MIN_POSITIVE;
 impl LevelBuild {
     /// Samples the field (with the level rules) and builds the chunk's tree.
     pub fn run(&self, field: &dyn Field) -> Result<KdTree> {
+        Ok(self.build(field)?.tree)
+    }
+
+    /// [`LevelBuild::run`], also returning the field's samples to keep for the
+    /// next build of the chunk.
+    pub fn build(&self, field: &dyn Field) -> Result<BuiltChunk> {
         self.settings.run(|| {
-            let values = self.samples(field)?;
+            let (values, samples) = self.sampled(field)?;
             let h = Hermite::new(field, &self.grid, &values, &self.settings)?;
             let r = self.res as u16;
-            Ok(kdtree::build_in(
+            let tree = kdtree::build_in(
                 &h,
                 self.settings.partition,
                 [1, 1, 1],
                 [r + 1, r + 1, r + 1],
-            ))
+            );
+            Ok(BuiltChunk { tree, samples })
         })?
     }
 
@@ -79,16 +105,41 @@ impl LevelBuild {
     /// signs, so the samples have the signs sampling would give, and the tree is
     /// the one sampling would build (no surface).
     pub fn samples(&self, field: &dyn Field) -> Result<Vec<f32>> {
-        let skipped = hermite::one_sign(field, &self.grid, CONFORM_MARGIN, &self.settings)?;
-        let mut values = match skipped {
-            Some(v) => v,
-            None if self.neighbourhood.coarser.is_empty() => {
-                hermite::sample(field, &self.grid, &self.settings)?
+        Ok(self.sampled(field)?.0)
+    }
+
+    /// [`LevelBuild::samples`] and the field's samples they came from (taken
+    /// from [`LevelBuild::kept`] when it has them).
+    fn sampled(&self, field: &dyn Field) -> Result<Sampled> {
+        let inner = match &self.kept {
+            Some(kept) => kept.clone(),
+            None => {
+                if let Some(mut v) =
+                    hermite::one_sign(field, &self.grid, CONFORM_MARGIN, &self.settings)?
+                {
+                    self.force_halo(&mut v);
+                    return Ok((v, None));
+                }
+                Arc::from(hermite::sample(field, &self.grid, &self.settings)?)
             }
-            None => self.conformed(field)?,
+        };
+        if inner.len() != self.grid.corner_count() as usize {
+            return Err(Error::InvalidSetting {
+                name: "kept samples",
+                reason: format!(
+                    "{} samples kept for a grid of {} corners",
+                    inner.len(),
+                    self.grid.corner_count()
+                ),
+            });
+        }
+        let mut values = if self.neighbourhood.coarser.is_empty() {
+            inner.to_vec()
+        } else {
+            self.conformed(field, &inner)?
         };
         self.force_halo(&mut values);
-        Ok(values)
+        Ok((values, Some(inner)))
     }
 
     /// Rule 1 (see [`super::levels`]): on the boundary of a coarser neighbour, a
@@ -101,7 +152,7 @@ impl LevelBuild {
     /// samples computed as their owners compute them; the grid is sampled, and
     /// the points past it are evaluated when first read (only around the coarse
     /// boundaries).
-    fn conformed(&self, field: &dyn Field) -> Result<Vec<f32>> {
+    fn conformed(&self, field: &dyn Field, inner: &[f32]) -> Result<Vec<f32>> {
         let res = self.res as i32;
         let g = &self.grid;
         let wide = Grid {
@@ -109,7 +160,6 @@ impl LevelBuild {
             offset: g.offset - IVec3::splat(CONFORM_MARGIN as i32),
             ..*g
         };
-        let inner = hermite::sample(field, g, &self.settings)?;
         let corners = g.corners().as_ivec3();
         // Points past the grid: NaN until first read.
         let past: Vec<Cell<f32>> = vec![Cell::new(f32::NAN); wide.corner_count() as usize];

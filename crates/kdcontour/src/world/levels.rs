@@ -58,7 +58,7 @@ mod seams;
 
 pub use seams::{LevelSnapshot, Seam};
 
-use super::conform::{level_grid, LevelBuild, Neighbourhood};
+use super::conform::{level_grid, BuiltChunk, LevelBuild, Neighbourhood};
 use super::layout::{ChunkKey, ChunkMap, Layout};
 use crate::error::{Error, Result};
 use crate::field::Field;
@@ -71,11 +71,12 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 /// One chunk: its tree (once built), the neighbourhood it was built for, its
-/// threshold.
+/// threshold, and the field's samples it was built from (when kept).
 struct Slot {
     tree: Option<Arc<KdTree>>,
     built_for: Neighbourhood,
     threshold: f32,
+    samples: Option<Arc<[f32]>>,
 }
 
 /// A layout with every chunk's neighbourhood worked out, checked and ready to
@@ -118,6 +119,12 @@ pub struct LevelWorld {
     pub chunk_res: u32,
     /// Build settings used for every chunk.
     pub settings: Settings,
+    /// Keep each chunk's field samples (default true), so a chunk rebuilt
+    /// because a neighbour changed level is conformed again without sampling
+    /// the field. Costs `(chunk_res + 3)^3` floats per sampled chunk (counted in
+    /// [`LevelWorld::retained_bytes`]). After the field changes, drop them with
+    /// [`LevelWorld::edited`] or [`LevelWorld::forget_samples`].
+    pub keep_samples: bool,
     layout: Layout,
     neighbourhoods: ChunkMap<Neighbourhood>,
     default_threshold: f32,
@@ -147,6 +154,7 @@ impl LevelWorld {
             cell_size,
             chunk_res,
             settings,
+            keep_samples: true,
             layout: Layout::uniform(IVec3::ZERO, IVec3::ONE, 0)?,
             neighbourhoods: ChunkMap::default(),
             default_threshold: threshold,
@@ -215,18 +223,25 @@ impl LevelWorld {
                 ),
             });
         }
-        let chunks = layout.chunks();
-        Self::check_budget(chunks.len() as u64, self.chunk_res, &self.settings)?;
-        self.slots.retain(|k, _| layout.contains(k));
-        for k in chunks {
+        Self::check_budget(layout.len() as u64, self.chunk_res, &self.settings)?;
+        // Trees and samples of the chunks that leave, and the old neighbourhoods,
+        // are freed on a rayon thread: thousands of buffers are a few ms.
+        let removed: Vec<Slot> = self
+            .slots
+            .extract_if(|k, _| !layout.contains(k))
+            .map(|(_, s)| s)
+            .collect();
+        for &k in neighbourhoods.keys() {
             self.slots.entry(k).or_insert(Slot {
                 tree: None,
                 built_for: Neighbourhood::default(),
                 threshold: self.default_threshold,
+                samples: None,
             });
         }
         self.layout = layout;
-        self.neighbourhoods = neighbourhoods;
+        let old = std::mem::replace(&mut self.neighbourhoods, neighbourhoods);
+        drop_elsewhere((removed, old));
         Ok(self.stale())
     }
 
@@ -291,27 +306,67 @@ impl LevelWorld {
                 .cloned()
                 .unwrap_or_else(|| Neighbourhood::of(&self.layout, k)),
             settings: self.settings.clone(),
+            kept: self.slots.get(k).and_then(|s| s.samples.clone()),
         }
     }
 
-    /// Installs a tree built by [`LevelBuild::run`] for chunk `build.key`.
+    /// Installs a tree built by [`LevelBuild::run`] for chunk `build.key` (the
+    /// chunk's kept samples are dropped: they may not be the tree's).
     pub fn insert_tree(&mut self, build: &LevelBuild, tree: KdTree) {
+        self.insert_built(
+            build,
+            BuiltChunk {
+                tree,
+                samples: None,
+            },
+        );
+    }
+
+    /// Installs a chunk built by [`LevelBuild::build`], keeping its samples
+    /// when [`LevelWorld::keep_samples`] is set.
+    pub fn insert_built(&mut self, build: &LevelBuild, built: BuiltChunk) {
+        let keep = self.keep_samples;
         let s = self.slot_mut(&build.key);
-        s.tree = Some(Arc::new(tree));
+        let old = (
+            s.tree.replace(Arc::new(built.tree)),
+            std::mem::replace(&mut s.samples, built.samples.filter(|_| keep)),
+        );
         s.built_for = build.neighbourhood.clone();
+        drop_elsewhere(old);
+    }
+
+    /// Drops the kept samples of `keys` (chunks not in the layout are
+    /// ignored): the field changed there, so their next build samples it.
+    pub fn forget_samples(&mut self, keys: &[ChunkKey]) {
+        for k in keys {
+            if let Some(s) = self.slots.get_mut(k) {
+                drop_elsewhere(s.samples.take());
+            }
+        }
+    }
+
+    /// The field changed within `radius` of `center` (an edit): drops the kept
+    /// samples of the chunks it reaches and returns them
+    /// ([`LevelWorld::chunks_near_edit`]), to rebuild.
+    pub fn edited(&mut self, center: Vec3, radius: f32) -> Vec<ChunkKey> {
+        let keys = self.chunks_near_edit(center, radius);
+        self.forget_samples(&keys);
+        keys
     }
 
     /// Forgets chunk `k`'s tree (a failed build): its mesh and the seams it owns
     /// become empty, and [`LevelWorld::stale`] lists it again.
     pub fn remove_tree(&mut self, k: &ChunkKey) {
-        self.slot_mut(k).tree = None;
+        let s = self.slot_mut(k);
+        drop_elsewhere((s.tree.take(), s.samples.take()));
     }
 
-    /// Samples `field` for chunk `k` and builds its tree (replacing an old one).
+    /// Samples `field` for chunk `k` (or conforms its kept samples) and builds
+    /// its tree (replacing an old one).
     pub fn build_chunk(&mut self, k: &ChunkKey, field: &dyn Field) -> Result<()> {
         let b = self.chunk_build(k);
-        let tree = b.run(field)?;
-        self.insert_tree(&b, tree);
+        let built = b.build(field)?;
+        self.insert_built(&b, built);
         Ok(())
     }
 
@@ -329,11 +384,11 @@ impl LevelWorld {
                 ..self.chunk_build(k)
             })
             .collect();
-        let trees: Vec<Result<KdTree>> = self
+        let built: Vec<Result<BuiltChunk>> = self
             .settings
-            .run(|| builds.par_iter().map(|b| b.run(field)).collect())?;
-        for (b, t) in builds.iter().zip(trees) {
-            self.insert_tree(b, t?);
+            .run(|| builds.par_iter().map(|b| b.build(field)).collect())?;
+        for (b, t) in builds.iter().zip(built) {
+            self.insert_built(b, t?);
         }
         Ok(())
     }
@@ -354,7 +409,8 @@ impl LevelWorld {
     /// whose box, grown by two of their own cells, meets that ball (a chunk samples
     /// one cell of halo, and one more where it conforms to a coarser neighbour).
     /// Rebuild them with [`LevelWorld::build`]; every level that covers the edit
-    /// is among them.
+    /// is among them. (When the field changed there, [`LevelWorld::edited`]
+    /// also drops their kept samples.)
     pub fn chunks_near_edit(&self, center: Vec3, radius: f32) -> Vec<ChunkKey> {
         self.chunks()
             .into_iter()
@@ -382,12 +438,16 @@ impl LevelWorld {
         self.slot_mut(k).threshold = threshold;
     }
 
-    /// Bytes held by all retained trees.
+    /// Bytes held by all retained trees and kept samples.
     pub fn retained_bytes(&self) -> usize {
         self.slots
             .values()
-            .filter_map(|s| s.tree.as_ref())
-            .map(|t| t.retained_bytes())
+            .map(|s| {
+                s.tree.as_ref().map_or(0, |t| t.retained_bytes())
+                    + s.samples
+                        .as_ref()
+                        .map_or(0, |v| std::mem::size_of_val(&**v))
+            })
             .sum()
     }
 
@@ -468,4 +528,10 @@ impl LevelWorld {
         contour(&parts, &jobs, &mut out);
         out
     }
+}
+
+/// Drops `garbage` on a rayon thread, so the thread that changes the world (a
+/// game's main thread) does not free its buffers.
+fn drop_elsewhere<T: Send + 'static>(garbage: T) {
+    rayon::spawn(move || drop(garbage));
 }

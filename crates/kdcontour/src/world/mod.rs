@@ -34,7 +34,7 @@ pub mod layout;
 pub mod levels;
 mod lod;
 
-pub use conform::{LevelBuild, Neighbourhood};
+pub use conform::{BuiltChunk, LevelBuild, Neighbourhood};
 pub use layout::{ChunkKey, ChunkMap, ChunkSet, KeyHasher, Layout};
 pub use levels::{LevelSnapshot, LevelWorld, PreparedLayout, Seam};
 pub use lod::Lod;
