@@ -7,7 +7,9 @@
 
 use bevy::prelude::*;
 use kdcontour::field::Field;
-use kdcontour::world::{ChunkBuild, ChunkKey, ChunkSnapshot, LevelBuild, LevelSnapshot};
+use kdcontour::world::{
+    BuiltChunk, ChunkBuild, ChunkKey, ChunkSnapshot, LevelBuild, LevelSnapshot,
+};
 use kdcontour::{ChunkWorld, IndexedMesh, KdTree, LevelWorld};
 
 /// A volume's chunks and their retained trees.
@@ -28,11 +30,15 @@ pub enum ChunkJob {
 }
 
 impl ChunkJob {
-    /// Samples the field and builds the chunk's tree.
-    pub fn run(&self, field: &dyn Field) -> kdcontour::Result<KdTree> {
+    /// Samples the field (a level chunk reuses its kept samples) and builds
+    /// the chunk's tree.
+    pub fn run(&self, field: &dyn Field) -> kdcontour::Result<BuiltChunk> {
         match self {
-            ChunkJob::Flat(b) => b.run(field),
-            ChunkJob::Levels(b) => b.run(field),
+            ChunkJob::Flat(b) => b.run(field).map(|tree| BuiltChunk {
+                tree,
+                samples: None,
+            }),
+            ChunkJob::Levels(b) => b.build(field),
         }
     }
 }
@@ -188,14 +194,31 @@ impl VolumeWorld {
         }
     }
 
-    /// Installs the tree `job` built for chunk `k`.
-    pub(crate) fn insert_tree(&mut self, k: &ChunkKey, job: &ChunkJob, tree: KdTree) {
+    /// Installs the tree (and samples) `job` built for chunk `k`.
+    pub(crate) fn insert_built(&mut self, k: &ChunkKey, job: &ChunkJob, built: BuiltChunk) {
         match (self, job) {
-            (VolumeWorld::Flat(w), _) => w.insert_tree(k.coord, tree),
-            (VolumeWorld::Levels(w), ChunkJob::Levels(b)) => w.insert_tree(b, tree),
+            (VolumeWorld::Flat(w), _) => w.insert_tree(k.coord, built.tree),
+            (VolumeWorld::Levels(w), ChunkJob::Levels(b)) => w.insert_built(b, built),
             (VolumeWorld::Levels(_), ChunkJob::Flat(_)) => {
                 unreachable!("a level world only makes level jobs")
             }
+        }
+    }
+
+    /// The field changed within `reach` of `centre`: the chunks to rebuild
+    /// ([`VolumeWorld::chunks_near_edit`]), whose kept samples are dropped.
+    pub(crate) fn edited(&mut self, centre: Vec3, reach: f32) -> Vec<ChunkKey> {
+        match self {
+            VolumeWorld::Flat(_) => self.chunks_near_edit(centre, reach),
+            VolumeWorld::Levels(w) => w.edited(centre, reach),
+        }
+    }
+
+    /// The whole field changed: drops every kept sample.
+    pub(crate) fn forget_samples(&mut self) {
+        if let VolumeWorld::Levels(w) = self {
+            let all = w.chunks();
+            w.forget_samples(&all);
         }
     }
 

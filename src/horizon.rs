@@ -37,6 +37,7 @@
 //! The first layout of a volume replaces nothing: its chunks show as they land.
 
 use crate::state::{Transition, VolumeState};
+use crate::tasks::drop_elsewhere;
 use crate::volume::KdVolume;
 use bevy::prelude::*;
 use bevy::tasks::{futures::check_ready, AsyncComputeTaskPool};
@@ -206,6 +207,8 @@ pub(crate) fn stream(
 pub(crate) struct NextLayout {
     prepared: PreparedLayout,
     keep: HorizonKeep,
+    /// The chunks the view keeps, in layout order.
+    kept: Vec<ChunkKey>,
     /// For each kept chunk, the chunks whose owned seams touch it.
     owners: ChunkMap<Vec<ChunkKey>>,
     /// For each kept chunk, the chunks of the seams it owns.
@@ -234,6 +237,7 @@ impl NextLayout {
         Ok(NextLayout {
             prepared,
             keep,
+            kept,
             owners,
             partners,
         })
@@ -252,6 +256,7 @@ impl VolumeState {
         let NextLayout {
             prepared,
             keep,
+            kept: members,
             owners,
             partners,
         } = next;
@@ -283,12 +288,8 @@ impl VolumeState {
                 world.remove_tree(k);
             }
         }
-        let members: Vec<ChunkKey> = world
-            .chunks()
-            .into_iter()
-            .filter(|k| keep.keeps(k))
-            .collect();
         let mut retired = Vec::new();
+        let mut garbage = Vec::with_capacity(dropped.len());
         for k in &dropped {
             let slot = self.slots.remove(k).expect("listed");
             if slot.shown && !first {
@@ -296,6 +297,7 @@ impl VolumeState {
             } else {
                 commands.entity(slot.entity).despawn();
             }
+            garbage.push(slot);
         }
         for k in members {
             if !self.slots.contains_key(&k) {
@@ -326,7 +328,7 @@ impl VolumeState {
                 blocked.extend(partners.get(k).into_iter().flatten());
             }
         }
-        self.seam_owners = owners;
+        drop_elsewhere((garbage, std::mem::replace(&mut self.seam_owners, owners)));
         for k in &touched {
             let slot = self.slots.get_mut(k).expect("kept");
             slot.held = !first;

@@ -342,7 +342,7 @@ impl VolumeState {
     /// `centre` changes (at every level that covers it); returns them.
     pub(crate) fn rebuild_near(&mut self, centre: Vec3, reach: f32) -> Vec<ChunkKey> {
         let mut rebuilt = Vec::new();
-        for c in self.world.chunks_near_edit(centre, reach) {
+        for c in self.world.edited(centre, reach) {
             if self.slots.contains_key(&c) {
                 self.mark_build(&c);
                 rebuilt.push(c);
@@ -353,6 +353,7 @@ impl VolumeState {
 
     /// Marks every loaded chunk for a rebuild; returns them.
     pub(crate) fn rebuild_all(&mut self) -> Vec<ChunkKey> {
+        self.world.forget_samples();
         let mut all: Vec<ChunkKey> = self.slots.keys().copied().collect();
         all.sort_by_key(|c| c.order());
         for c in &all {

@@ -15,14 +15,15 @@ use crate::volume::{ChunkStatus, KdChunk};
 use crate::KdContourSystems;
 use bevy::prelude::*;
 use bevy::tasks::{futures::check_ready, AsyncComputeTaskPool};
+use kdcontour::world::BuiltChunk;
 use kdcontour::world::ChunkKey;
-use kdcontour::{IndexedMesh, KdTree};
+use kdcontour::IndexedMesh;
 
 /// A finished build.
 pub(crate) struct BuildOut {
     generation: u64,
     job: ChunkJob,
-    result: Result<KdTree, String>,
+    result: Result<BuiltChunk, String>,
     ms: f64,
 }
 
@@ -134,6 +135,14 @@ impl VolumeState {
     }
 }
 
+/// Drops `garbage` on a task thread: freeing many meshes or trees costs the
+/// main thread milliseconds.
+pub(crate) fn drop_elsewhere<T: Send + 'static>(garbage: T) {
+    AsyncComputeTaskPool::get()
+        .spawn(async move { drop(garbage) })
+        .detach();
+}
+
 /// The text of a caught panic.
 fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
     p.downcast_ref::<&str>()
@@ -206,7 +215,7 @@ fn poll_tasks(
         built.sort_by_key(|(c, _, _)| c.order());
         for (c, job, result) in built {
             match result {
-                Ok(tree) => state.world_mut().insert_tree(&c, &job, tree),
+                Ok(built) => state.world_mut().insert_built(&c, &job, built),
                 Err(error) => {
                     error!(
                         "chunk {} (level {}) of volume {entity}: {error}",

@@ -7,6 +7,7 @@ use crate::messages::ChunkMeshed;
 use crate::settings::KdContourSettings;
 use crate::state::VolumeState;
 use crate::stats::MainThreadClock;
+use crate::tasks::drop_elsewhere;
 use crate::volume::{ChunkStatus, KdChunk, KdVolume};
 use crate::KdContourSystems;
 use bevy::asset::RenderAssetUsages;
@@ -131,7 +132,9 @@ impl Upload<'_, '_, '_, '_, '_, '_> {
             Some(bevy_mesh) => {
                 match existing {
                     Some(Mesh3d(handle)) if self.meshes.get(handle.id()).is_some() => {
-                        let _ = self.meshes.insert(handle.id(), bevy_mesh);
+                        if let Some(mut mesh) = self.meshes.get_mut(handle.id()) {
+                            drop_elsewhere(std::mem::replace(&mut *mesh, bevy_mesh));
+                        }
                     }
                     _ => {
                         let handle = self.meshes.add(bevy_mesh);
