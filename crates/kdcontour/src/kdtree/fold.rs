@@ -243,20 +243,31 @@ fn ladder(
     path: &mut Vec<u32>,
     rungs: &mut Vec<Rung>,
 ) -> Option<u32> {
-    path.clear();
     rungs.clear();
-    let mut n = tree.root;
-    loop {
+    let child = |n: u32| {
         let node = &tree.nodes[n as usize];
-        path.push(n);
-        if node.axis == CELL {
-            break;
-        }
-        let side = (cell[node.axis as usize] >= node.split as u32) as usize;
-        n = node.children[side];
+        node.children[(cell[node.axis as usize] >= node.split as u32) as usize]
+    };
+    // The path of the last cell looked up (a neighbour, most often) shares its top.
+    let mut keep = 1;
+    while keep < path.len() && child(path[keep - 1]) == path[keep] {
+        keep += 1;
+    }
+    if path.first() != Some(&tree.root) {
+        keep = 0;
+    }
+    path.truncate(keep);
+    if path.is_empty() {
+        path.push(tree.root);
+    }
+    let mut n = *path.last().expect("the root at least");
+    while tree.nodes[n as usize].axis != CELL {
+        n = child(n);
         if n == NONE {
+            path.clear();
             return None;
         }
+        path.push(n);
     }
     let leaf = &tree.nodes[n as usize];
     let mut local = CellTables::get().cell(leaf.config, leaf.mask).edge_comp[edge];
