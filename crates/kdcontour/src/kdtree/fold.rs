@@ -227,28 +227,20 @@ impl<'a> Halo<'a> {
 /// Buffers one thread reuses from edge to edge.
 #[derive(Default)]
 struct Scratch {
-    path: Vec<u32>,
+    /// Per quadrant: the root-to-cell path of its cell.
+    paths: [Vec<u32>; 4],
     ladders: [Vec<Rung>; 4],
     errors: Vec<f32>,
 }
 
-/// Fills `rungs` with the nodes a cell's corner of the edge can be at some
-/// threshold, bottom up: the cell, then each ancestor that may be a leaf, up to the
-/// first that is not clusterable. Returns the cell's node, or `None` when the cell
-/// is not in the tree.
-fn ladder(
-    tree: &KdTree,
-    cell: [u32; 3],
-    edge: usize,
-    path: &mut Vec<u32>,
-    rungs: &mut Vec<Rung>,
-) -> Option<u32> {
-    rungs.clear();
+/// Sets `path` to the root-to-cell path of `cell` and returns the cell's node, or
+/// `None` when the cell is not in the tree. The path already there (of a
+/// neighbouring cell, most often) keeps the top it shares.
+fn descend(tree: &KdTree, cell: [u32; 3], path: &mut Vec<u32>) -> Option<u32> {
     let child = |n: u32| {
         let node = &tree.nodes[n as usize];
         node.children[(cell[node.axis as usize] >= node.split as u32) as usize]
     };
-    // The path of the last cell looked up (a neighbour, most often) shares its top.
     let mut keep = 1;
     while keep < path.len() && child(path[keep - 1]) == path[keep] {
         keep += 1;
@@ -269,14 +261,28 @@ fn ladder(
         }
         path.push(n);
     }
+    Some(n)
+}
+
+/// Fills `rungs` with the nodes the corner of the edge in the cell at the end of
+/// `path` can be at some threshold, bottom up: the cell, then each ancestor that
+/// may be a leaf, up to the first that is not clusterable or the path's first
+/// `shared` nodes (which the edge's four cells all share: there its polygon has
+/// collapsed). `false` when the edge does not cross in the cell.
+fn climb(tree: &KdTree, path: &[u32], shared: usize, edge: usize, rungs: &mut Vec<Rung>) -> bool {
+    rungs.clear();
+    let n = *path.last().expect("a cell");
     let leaf = &tree.nodes[n as usize];
     let mut local = CellTables::get().cell(leaf.config, leaf.mask).edge_comp[edge];
     if local == NO_COMP {
-        return None;
+        return false;
     }
     rungs.push(Rung::of(tree, n, local, f32::NEG_INFINITY));
     let mut child = n;
-    for &p in path.iter().rev().skip(1) {
+    for &p in path[shared.min(path.len() - 1)..path.len() - 1]
+        .iter()
+        .rev()
+    {
         let node = &tree.nodes[p as usize];
         if !node.clusterable {
             break;
@@ -287,7 +293,7 @@ fn ladder(
         }
         child = p;
     }
-    Some(n)
+    true
 }
 
 /// Sweeps the thresholds at which the polygon of `edge` changes, pushing onto
@@ -303,24 +309,49 @@ fn check_edge(
     let Edge { line, d } = edge;
     let (u, v) = ((d + 1) % 3, (d + 2) % 3);
     let mut cells = [NONE; 4];
+    let root = &tree.nodes[tree.root as usize];
+    let mut halo_rungs = [None; 4];
     for (q, &(qu, qv)) in QUADRANT.iter().enumerate() {
         let mut c = line;
         // Wrapping: a cell below the grid's side is no cell at all.
         c[u] = (line[u] + qu).wrapping_sub(1);
         c[v] = (line[v] + qv).wrapping_sub(1);
-        let e = edge_index(d, 1 - qu, 1 - qv);
-        let root = &tree.nodes[tree.root as usize];
         if (0..3).all(|a| c[a] >= root.min[a] as u32 && c[a] < root.max[a] as u32) {
-            match ladder(tree, c, e, &mut s.path, &mut s.ladders[q]) {
+            match descend(tree, c, &mut s.paths[q]) {
                 Some(n) => cells[q] = n,
                 None => return [NONE; 4],
             }
         } else {
-            s.ladders[q].clear();
-            match halo.rung(c, e, q) {
-                Some(r) => s.ladders[q].push(r),
+            match halo.rung(c, edge_index(d, 1 - qu, 1 - qv), q) {
+                Some(r) => halo_rungs[q] = Some(r),
                 None => return [NONE; 4],
             }
+        }
+    }
+    // The nodes all four cells share: above them the polygon has collapsed.
+    let shared = if cells.contains(&NONE) {
+        0
+    } else {
+        (1..4)
+            .map(|q| {
+                let (a, b) = (&s.paths[0], &s.paths[q]);
+                a.iter().zip(b.iter()).take_while(|(x, y)| x == y).count()
+            })
+            .min()
+            .unwrap_or(0)
+    };
+    for (q, &(qu, qv)) in QUADRANT.iter().enumerate() {
+        if let Some(r) = halo_rungs[q] {
+            s.ladders[q].clear();
+            s.ladders[q].push(r);
+        } else if !climb(
+            tree,
+            &s.paths[q],
+            shared,
+            edge_index(d, 1 - qu, 1 - qv),
+            &mut s.ladders[q],
+        ) {
+            return [NONE; 4];
         }
     }
     let inside_low = !tree.is_outside(line);
@@ -333,28 +364,40 @@ fn check_edge(
     // Per corner, its current rung: the highest within the threshold.
     let mut at = [0usize; 4];
     for &t in &s.errors {
+        let before = at;
         for (q, l) in s.ladders.iter().enumerate() {
             while at[q] + 1 < l.len() && l[at[q] + 1].error <= t {
                 at[q] += 1;
             }
         }
+        // The corners that climbed at this threshold (to the merge that may fold).
+        let mut climbed = [0, 1, 2, 3].map(|q| at[q] != before[q]);
         loop {
             let leaves = [0, 1, 2, 3].map(|q| s.ladders[q][at[q]]);
             if faces(leaves, d, inside_low) {
                 break;
             }
-            // Refuse the largest clustered leaf, and look again.
-            let Some(big) = leaves
-                .iter()
-                .filter(|r| {
-                    tree.nodes
-                        .get(r.node as usize)
-                        .is_some_and(|n| n.axis != CELL)
-                })
-                .max_by_key(|r| (volume(&tree.nodes[r.node as usize]), r.node))
-            else {
+            // Refuse the largest clustered leaf among the corners that just
+            // climbed (else among all), and look again.
+            let clustered = |q: &usize| {
+                tree.nodes
+                    .get(leaves[*q].node as usize)
+                    .is_some_and(|n| n.axis != CELL)
+            };
+            let largest = |q: &usize| {
+                let r = leaves[*q];
+                (volume(&tree.nodes[r.node as usize]), r.node)
+            };
+            let pick = (0..4)
+                .filter(|q| climbed[*q])
+                .filter(clustered)
+                .max_by_key(largest)
+                .or_else(|| (0..4).filter(clustered).max_by_key(largest));
+            let Some(q) = pick else {
                 break;
             };
+            climbed = [false; 4];
+            let big = leaves[q];
             let big = big.node;
             refused.push(big);
             for (q, l) in s.ladders.iter_mut().enumerate() {
