@@ -5,15 +5,14 @@
 //! clustering leaves no face overlapping another in its plane. Chunk seams are
 //! checked against the neighbours' finest cells only: their defects are printed.
 
-use glam::{UVec3, Vec3};
+use glam::Vec3;
 use kdcontour::world::{Layout, LevelWorld};
 use kdcontour::{
-    scenes, validate_with, Checks, ChunkWorld, Field, Grid, IndexedMesh, KdTree, MeshReport,
-    Settings,
+    scenes, validate_with, Checks, Field, Grid, IndexedMesh, KdTree, MeshReport, Settings,
 };
 
 mod common;
-use common::Lcg;
+use common::{chunk_world, Lcg};
 
 const THRESHOLDS: [f32; 5] = [-1.0, 0.001, 0.01, 0.1, 1.0];
 
@@ -130,16 +129,7 @@ fn chunk_interiors_at_random_thresholds_do_not_fold() {
         let scene = scenes::scene(name).unwrap();
         let (chunks, res) = (3u32, 16u32);
         let cell = 2.0 / (chunks * res) as f32;
-        let mut w = ChunkWorld::new(
-            Vec3::splat(-1.0),
-            cell,
-            res,
-            UVec3::splat(chunks),
-            0.01,
-            Settings::default(),
-        )
-        .unwrap();
-        w.build_all(&*scene.field).unwrap();
+        let mut w = chunk_world(&*scene.field, chunks, res);
         for round in 0..3 {
             for c in w.coords() {
                 w.set_threshold(c, THRESHOLDS[rng.next() % THRESHOLDS.len()]);
