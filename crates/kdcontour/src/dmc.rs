@@ -65,10 +65,13 @@ pub fn uniform_dmc(h: &Hermite) -> IndexedMesh {
                             [edge_index(d, 1 - qu, 1 - qv)];
                         ids[q] = cell.patch_base + comp as u32;
                     }
+                    let mut facing = glam::Vec3::ZERO;
+                    facing[d] = 1.0;
                     if !inside_low {
                         ids.reverse();
+                        facing = -facing;
                     }
-                    mesh.push_polygon(ids);
+                    mesh.push_polygon_facing(ids, facing);
                 }
             }
         }

@@ -54,11 +54,24 @@
 //! - **Bad input is an [`Error`]**: NaN / infinite samples, empty or oversized grids,
 //!   malformed scene files (with line and column).
 //!
+//! - **Clustering folds nothing**: every polygon of a chunk's own mesh, at every
+//!   threshold, faces the way its grid edge crosses the surface and does not
+//!   oppose its vertices' normals; a node whose polygons would fold is never a
+//!   leaf (`kdtree/fold.rs`). So no adaptive fan folds back over its neighbours,
+//!   and on scenes whose uniform mesh is clean (sphere, box, torus, disk_pole)
+//!   every threshold is free of flipped, zero-area, crossing and overlapping
+//!   faces (`tests/folds.rs`). Where a shell is thinner than the error a
+//!   threshold allows (the gyroid at 0.01 and above), a face's centroid can still
+//!   cross the shell's middle and read the field's gradient from the other side.
+//!
 //! ## What it does not guarantee
-//! - No geometric guarantee: a coarse vertex clamped into a large node can make
-//!   neighbouring triangles cross on strongly curved surfaces, flat faces can fold
-//!   fans over in their plane, and features thinner than a cell can leave flipped
-//!   and zero-area faces. [`validate_with`] counts all of these (see
+//! - The uniform (threshold -1) mesh can have defects of its own, and so every
+//!   threshold: features thinner than a cell leave flipped and zero-area faces,
+//!   cells on either side of a crease can place vertices whose triangles cross,
+//!   and a union of touching solids has a zero field inside the solid, where a
+//!   face's centroid can read a gradient that points the wrong way. Chunk seams
+//!   are checked only against the neighbour's finest cells, so a seam next to a
+//!   coarser chunk can still fold. [`validate_with`] counts all of these (see
 //!   [`validate`](mod@validate) for what each figure means); the tests record
 //!   today's counts per scene (`tests/geometry.rs`, issue 13).
 //! - Features thinner than a cell are not resolved (the grid decides topology).

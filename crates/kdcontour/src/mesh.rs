@@ -54,6 +54,18 @@ impl IndexedMesh {
     /// repeat), splitting a quad along the diagonal whose two triangles bend least
     /// (the shorter diagonal on a tie).
     pub fn push_polygon(&mut self, ids: [u32; 4]) {
+        self.push_polygon_facing(ids, Vec3::ZERO);
+    }
+
+    /// [`IndexedMesh::push_polygon`] for the dual polygon of a grid edge whose
+    /// surface faces `facing` (the edge's direction from its inside corner to its
+    /// outside corner; zero when unknown). A quad is split along a diagonal whose
+    /// two triangles both face that way ([`triangle_faces`]) when only one does, so
+    /// no triangle is folded back over its neighbour: the four vertices lie in the
+    /// four quadrants around the edge, so seen along the edge the quad is a simple
+    /// polygon winding once around it, and one of its diagonals is inside it.
+    /// Otherwise the diagonal whose triangles bend least wins.
+    pub fn push_polygon_facing(&mut self, ids: [u32; 4], facing: Vec3) {
         let mut poly = [0u32; 4];
         let mut k = 0;
         for i in 0..4 {
@@ -65,16 +77,34 @@ impl IndexedMesh {
         match k {
             3 => self.indices.extend_from_slice(&poly[..3]),
             4 => {
-                let p = |i: usize| self.positions[poly[i] as usize];
+                let p = |i: usize| self.positions[poly[i] as usize].as_dvec3();
                 let n = |a: usize, b: usize, c: usize| {
                     (p(b) - p(a)).cross(p(c) - p(a)).normalize_or_zero()
                 };
-                let bend02 = n(0, 1, 2).dot(n(0, 2, 3));
-                let bend13 = n(0, 1, 3).dot(n(1, 2, 3));
-                let use02 = if (bend02 - bend13).abs() > 1e-6 {
-                    bend02 > bend13
+                let tri = |i: [usize; 3]| {
+                    (
+                        i.map(|k| self.positions[poly[k] as usize]),
+                        i.map(|k| self.normals[poly[k] as usize]),
+                    )
+                };
+                let faces = |t: [[usize; 3]; 2]| {
+                    t.iter().all(|&i| {
+                        let (p, n) = tri(i);
+                        triangle_faces(p, n, facing)
+                    })
+                };
+                let (t02, t13) = ([[0, 1, 2], [0, 2, 3]], [[0, 1, 3], [1, 2, 3]]);
+                let (ok02, ok13) = (faces(t02), faces(t13));
+                let use02 = if ok02 != ok13 {
+                    ok02
                 } else {
-                    p(0).distance_squared(p(2)) <= p(1).distance_squared(p(3))
+                    let bend02 = n(0, 1, 2).dot(n(0, 2, 3));
+                    let bend13 = n(0, 1, 3).dot(n(1, 2, 3));
+                    if (bend02 - bend13).abs() > 1e-6 {
+                        bend02 > bend13
+                    } else {
+                        p(0).distance_squared(p(2)) <= p(1).distance_squared(p(3))
+                    }
                 };
                 let tris = if use02 {
                     [poly[0], poly[1], poly[2], poly[0], poly[2], poly[3]]
@@ -171,6 +201,17 @@ impl IndexedMesh {
 
 /// Writes a mesh in one format.
 type MeshWriter = fn(&IndexedMesh, &mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>;
+
+/// Whether the triangle `p` (counter-clockwise seen from outside) faces the way
+/// the dual polygon it comes from must: its normal has a positive component along
+/// `facing` (its grid edge, from the inside corner to the outside one) and does not
+/// point against the sum of its vertices' normals (the field's gradients at their
+/// crossings), when that sum is not zero. A zero-area triangle faces no way.
+pub fn triangle_faces(p: [Vec3; 3], n: [Vec3; 3], facing: Vec3) -> bool {
+    let p = p.map(|x| x.as_dvec3());
+    let cross = (p[1] - p[0]).cross(p[2] - p[0]);
+    cross.dot(facing.as_dvec3()) > 0.0 && cross.dot((n[0] + n[1] + n[2]).as_dvec3()) >= 0.0
+}
 
 #[cfg(test)]
 mod tests {

@@ -10,22 +10,7 @@ use kdcontour::{
 const LEVELS: [f32; 6] = [-1.0, 0.001, 0.01, 0.1, 1.0, 10.0];
 
 mod common;
-use common::Lcg;
-
-fn world(field: &dyn Field, chunks: u32, res: u32) -> ChunkWorld {
-    let cell = 2.0 / (chunks * res) as f32;
-    let mut w = ChunkWorld::new(
-        Vec3::splat(-1.0),
-        cell,
-        res,
-        UVec3::splat(chunks),
-        0.01,
-        Settings::default(),
-    )
-    .unwrap();
-    w.build_all(field).unwrap();
-    w
-}
+use common::{chunk_world as world, Lcg};
 
 fn single_grid_euler(field: &dyn Field, cells: u32) -> i64 {
     let tree = KdTree::build(field, &Grid::cube(1.0, cells), &Settings::default()).unwrap();

@@ -9,6 +9,7 @@
 //! may stand in for them. Cell leaves are made here.
 
 use super::cluster::cluster;
+use super::fold::refuse_folding_leaves;
 use super::split::kd_split;
 use super::{BuildStats, Comp, KdNode, KdTree, CELL, NONE};
 use crate::cell::{edge_corners, CellTables};
@@ -172,14 +173,16 @@ pub fn build_in(
     nodes.shrink_to_fit();
     let mut comps = arena.comps;
     comps.shrink_to_fit();
-    KdTree {
+    let mut tree = KdTree {
         grid: h.grid,
         nodes,
         comps,
         root,
         outside: h.outside.clone(),
         stats: Default::default(),
-    }
+    };
+    refuse_folding_leaves(&mut tree, h);
+    tree
 }
 
 impl KdTree {

@@ -562,10 +562,13 @@ impl Walker<'_, '_> {
                 }
                 // Inside at the low end: the surface faces +d, so keep the
                 // counter-clockwise quadrant order.
+                let mut facing = glam::Vec3::ZERO;
+                facing[d] = 1.0;
                 if prev {
                     ids.reverse();
+                    facing = -facing;
                 }
-                self.mesh.push_polygon(ids);
+                self.mesh.push_polygon_facing(ids, facing);
             }
             prev = next;
             x += step;

@@ -12,6 +12,8 @@
 //!   shortcut for flat nodes.
 //! - `cluster.rs`: the bottom-up topology-preserving clustering of section 5, run on
 //!   each node as the recursion returns.
+//! - `fold.rs`: the geometric test a clustered node passes before it may be a
+//!   leaf (its dual polygons must not fold against its finest neighbours).
 //! - `contour.rs`: contouring at a threshold (section 6: `cell_proc`, `face_proc`,
 //!   `edge_proc`).
 //!
@@ -21,6 +23,7 @@
 mod build;
 mod cluster;
 mod contour;
+mod fold;
 mod split;
 
 use crate::grid::Grid;

@@ -1,0 +1,444 @@
+//! What keeps geometry when nodes cluster (issue 13). The paper's conditions
+//! (section 5) keep topology: a clustered node stands for its subtree with the same
+//! signs and components. They say nothing of where its vertex lands, and a vertex
+//! at its QEF's minimiser can sit far along a flat face (a k-d box is often long
+//! and thin, and on a plane the minimiser is the mass point), so the triangles
+//! between it and its neighbours fold back over each other in the plane, some
+//! facing inward.
+//!
+//! Every polygon the contouring emits is the dual of one crossing edge of the grid:
+//! its corners are the vertices of the leaves (at the threshold) that hold the four
+//! cells around the edge. On each cell's root-to-cell path the leaf at threshold
+//! `e` is the highest node that may be a leaf and whose error is at most `e`
+//! (errors never decrease going up), so as `e` grows each corner climbs its path
+//! and an edge has only as many distinct polygons as its four paths have such
+//! nodes. [`refuse_folding_leaves`] visits them all, for every crossing edge, once
+//! the tree is built: a polygon must face the way its edge crosses the surface
+//! (from the inside corner to the outside one). A triangle faces that way when its
+//! normal has a positive component along the edge and does not oppose its
+//! vertices' normals ([`crate::mesh::triangle_faces`]), a quad when one of its
+//! diagonals splits it into two such triangles (the diagonal
+//! [`crate::IndexedMesh::push_polygon_facing`] then takes). Where a polygon does
+//! not, the largest clustered leaf in it may no longer be a leaf (`leaf_ok`): it
+//! stays clusterable, so its ancestors may still cluster and are tested in turn,
+//! and the cut passes through its children instead. Refusals change other edges'
+//! polygons, so the pass repeats until none is refused. Seen along its edge, a
+//! polygon of vertices inside their boxes winds once around the edge, so the cells
+//! alone never need refusing for this reason; what remains at the finest level is
+//! what uniform Dual Marching Cubes does.
+//!
+//! A chunk's seams are contoured against its neighbours' trees, whose cuts the
+//! build cannot know: on an edge with cells outside the tree (in the chunk's halo)
+//! those cells stand at their finest, their Dual Marching Cubes vertices. A seam
+//! polygon against a coarser neighbour can still fold.
+
+use super::{KdNode, KdTree, CELL, NONE};
+use crate::cell::{edge_index, CellTables, NO_COMP};
+use crate::hermite::Hermite;
+use crate::mesh::triangle_faces;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Quadrants around an edge, as in `contour.rs` (counter-clockwise about +d).
+const QUADRANT: [(u32, u32); 4] = [(0, 0), (1, 0), (1, 1), (0, 1)];
+
+/// One crossing edge: its low corner and axis.
+#[derive(Clone, Copy)]
+struct Edge {
+    line: [u32; 3],
+    d: usize,
+}
+
+/// One node a corner of an edge's polygon can be: the node (or, for a cell outside
+/// the tree, [`NONE`] less its quadrant), the component the edge belongs to in it,
+/// its error, and the component's vertex and normal.
+#[derive(Clone, Copy)]
+struct Rung {
+    node: u32,
+    local: u8,
+    error: f32,
+    pos: Vec3,
+    normal: Vec3,
+}
+
+impl Rung {
+    /// The rung of component `local` of tree node `node`.
+    fn of(tree: &KdTree, node: u32, local: u8, error: f32) -> Rung {
+        let n = &tree.nodes[node as usize];
+        Rung {
+            node,
+            local,
+            error,
+            pos: tree.comp_position(node, local),
+            normal: tree.comps[(n.comp_start + local as u32) as usize].normal(),
+        }
+    }
+}
+
+/// Clears `leaf_ok` on every clustered node whose polygons would fold at some
+/// threshold (see the module docs). Returns how many nodes it refused.
+pub(super) fn refuse_folding_leaves(tree: &mut KdTree, h: &Hermite) -> usize {
+    if tree.root == NONE {
+        return 0;
+    }
+    let edges = crossing_edges(tree);
+    let h = &Halo::new(h);
+    // The first pass visits every edge and learns its four cells; later ones only
+    // the edges below a node the pass before refused.
+    let t: &KdTree = tree;
+    let first: Vec<([u32; 4], Vec<u32>)> = edges
+        .par_iter()
+        .map_init(Scratch::default, |s, e| {
+            let mut marks = Vec::new();
+            let cells = check_edge(t, h, *e, s, &mut marks);
+            (cells, marks)
+        })
+        .collect();
+    let cells: Vec<[u32; 4]> = first.iter().map(|f| f.0).collect();
+    let mut marks: Vec<u32> = first.into_iter().flat_map(|f| f.1).collect();
+    let mut refused = 0;
+    let mut dirty = vec![false; tree.nodes.len()];
+    loop {
+        marks.sort_unstable();
+        marks.dedup();
+        if marks.is_empty() {
+            return refused;
+        }
+        refused += marks.len();
+        dirty.fill(false);
+        for &m in &marks {
+            tree.nodes[m as usize].leaf_ok = false;
+            mark_cells(tree, m, &mut dirty);
+        }
+        let t: &KdTree = tree;
+        let dirty = &dirty;
+        marks = (0..edges.len())
+            .into_par_iter()
+            .filter(|&i| cells[i].iter().any(|&c| c != NONE && dirty[c as usize]))
+            .map_init(Scratch::default, |s, i| {
+                let mut marks = Vec::new();
+                check_edge(t, h, edges[i], s, &mut marks);
+                marks
+            })
+            .flatten_iter()
+            .collect();
+    }
+}
+
+/// Sets `dirty` on every cell leaf below node `n`.
+fn mark_cells(tree: &KdTree, n: u32, dirty: &mut [bool]) {
+    let mut stack = vec![n];
+    while let Some(m) = stack.pop() {
+        let node = &tree.nodes[m as usize];
+        if node.axis == CELL {
+            dirty[m as usize] = true;
+        } else {
+            stack.extend(node.children.iter().filter(|&&c| c != NONE));
+        }
+    }
+}
+
+/// Every crossing edge with a cell in the tree, each once: from the first of its
+/// cells in the tree, in the order of [`OWNER`].
+fn crossing_edges(tree: &KdTree) -> Vec<Edge> {
+    let tables = CellTables::get();
+    let root = &tree.nodes[tree.root as usize];
+    let (lo, hi) = (root.min.map(|v| v as i64), root.max.map(|v| v as i64));
+    let in_tree = |c: [i64; 3]| (0..3).all(|a| c[a] >= lo[a] && c[a] < hi[a]);
+    let mut edges = Vec::new();
+    for n in &tree.nodes {
+        if n.axis != CELL {
+            continue;
+        }
+        let cc = tables.cell(n.config, n.mask);
+        let coord = n.min.map(|v| v as i64);
+        for d in 0..3 {
+            let (u, v) = ((d + 1) % 3, (d + 2) % 3);
+            for (k, &q) in OWNER.iter().enumerate() {
+                // This cell is in quadrant q of the edge; its edge is the one at
+                // the far side of the quadrant.
+                let (qu, qv) = QUADRANT[q];
+                if cc.edge_comp[edge_index(d, 1 - qu, 1 - qv)] == NO_COMP {
+                    continue;
+                }
+                let mut line = coord;
+                line[u] += 1 - qu as i64;
+                line[v] += 1 - qv as i64;
+                let cell_of = |q: usize| {
+                    let mut c = line;
+                    c[u] += QUADRANT[q].0 as i64 - 1;
+                    c[v] += QUADRANT[q].1 as i64 - 1;
+                    c
+                };
+                if OWNER[..k].iter().all(|&p| !in_tree(cell_of(p))) {
+                    edges.push(Edge {
+                        line: line.map(|x| x as u32),
+                        d,
+                    });
+                }
+            }
+        }
+    }
+    edges
+}
+
+/// The order in which the cells around an edge own it.
+const OWNER: [usize; 4] = [2, 1, 3, 0];
+
+/// The cells of the build's Hermite data outside the tree (a chunk's halo): their
+/// vertices stand in for the neighbouring chunk's, at its finest.
+struct Halo<'a> {
+    h: &'a Hermite,
+}
+
+impl<'a> Halo<'a> {
+    fn new(h: &'a Hermite) -> Self {
+        Halo { h }
+    }
+
+    /// The rung of the patch of cell `c` that edge `edge` belongs to, standing in
+    /// quadrant `q`; `None` when the data has no such cell.
+    fn rung(&self, c: [u32; 3], edge: usize, q: usize) -> Option<Rung> {
+        let key = (c[2], c[1], c[0]);
+        let i = self
+            .h
+            .cells
+            .binary_search_by(|a| {
+                (a.coord[2] as u32, a.coord[1] as u32, a.coord[0] as u32).cmp(&key)
+            })
+            .ok()?;
+        let cell = self.h.cells[i];
+        let local = CellTables::get().cell(cell.config, cell.mask).edge_comp[edge];
+        if local == NO_COMP {
+            return None;
+        }
+        let p = cell.patch_base as usize + local as usize;
+        let lo = Vec3::from_array(cell.coord.map(|v| v as f32));
+        Some(Rung {
+            node: NONE - q as u32,
+            local,
+            error: f32::NEG_INFINITY,
+            pos: self.h.patch_qef[p].solve(lo, lo + Vec3::ONE).0,
+            normal: self.h.patch_normal[p].normalize_or_zero(),
+        })
+    }
+}
+
+/// Buffers one thread reuses from edge to edge.
+#[derive(Default)]
+struct Scratch {
+    /// Per quadrant: the root-to-cell path of its cell.
+    paths: [Vec<u32>; 4],
+    ladders: [Vec<Rung>; 4],
+    errors: Vec<f32>,
+}
+
+/// Sets `path` to the root-to-cell path of `cell` and returns the cell's node, or
+/// `None` when the cell is not in the tree. The path already there (of a
+/// neighbouring cell, most often) keeps the top it shares.
+fn descend(tree: &KdTree, cell: [u32; 3], path: &mut Vec<u32>) -> Option<u32> {
+    let child = |n: u32| {
+        let node = &tree.nodes[n as usize];
+        node.children[(cell[node.axis as usize] >= node.split as u32) as usize]
+    };
+    let mut keep = 1;
+    while keep < path.len() && child(path[keep - 1]) == path[keep] {
+        keep += 1;
+    }
+    if path.first() != Some(&tree.root) {
+        keep = 0;
+    }
+    path.truncate(keep);
+    if path.is_empty() {
+        path.push(tree.root);
+    }
+    let mut n = *path.last().expect("the root at least");
+    while tree.nodes[n as usize].axis != CELL {
+        n = child(n);
+        if n == NONE {
+            path.clear();
+            return None;
+        }
+        path.push(n);
+    }
+    Some(n)
+}
+
+/// Fills `rungs` with the nodes the corner of the edge in the cell at the end of
+/// `path` can be at some threshold, bottom up: the cell, then each ancestor that
+/// may be a leaf, up to the first that is not clusterable or the path's first
+/// `shared` nodes (which the edge's four cells all share: there its polygon has
+/// collapsed). `false` when the edge does not cross in the cell.
+fn climb(tree: &KdTree, path: &[u32], shared: usize, edge: usize, rungs: &mut Vec<Rung>) -> bool {
+    rungs.clear();
+    let n = *path.last().expect("a cell");
+    let leaf = &tree.nodes[n as usize];
+    let mut local = CellTables::get().cell(leaf.config, leaf.mask).edge_comp[edge];
+    if local == NO_COMP {
+        return false;
+    }
+    rungs.push(Rung::of(tree, n, local, f32::NEG_INFINITY));
+    let mut child = n;
+    for &p in path[shared.min(path.len() - 1)..path.len() - 1]
+        .iter()
+        .rev()
+    {
+        let node = &tree.nodes[p as usize];
+        if !node.clusterable {
+            break;
+        }
+        local = tree.comps[(tree.nodes[child as usize].comp_start + local as u32) as usize].parent;
+        if node.leaf_ok {
+            rungs.push(Rung::of(tree, p, local, node.error));
+        }
+        child = p;
+    }
+    true
+}
+
+/// Sweeps the thresholds at which the polygon of `edge` changes, pushing onto
+/// `refused` the nodes refused to keep every one of them facing the right way.
+/// Returns the edge's four cells (all [`NONE`] when one is not in the tree).
+fn check_edge(
+    tree: &KdTree,
+    halo: &Halo,
+    edge: Edge,
+    s: &mut Scratch,
+    refused: &mut Vec<u32>,
+) -> [u32; 4] {
+    let Edge { line, d } = edge;
+    let (u, v) = ((d + 1) % 3, (d + 2) % 3);
+    let mut cells = [NONE; 4];
+    let root = &tree.nodes[tree.root as usize];
+    let mut halo_rungs = [None; 4];
+    for (q, &(qu, qv)) in QUADRANT.iter().enumerate() {
+        let mut c = line;
+        // Wrapping: a cell below the grid's side is no cell at all.
+        c[u] = (line[u] + qu).wrapping_sub(1);
+        c[v] = (line[v] + qv).wrapping_sub(1);
+        if (0..3).all(|a| c[a] >= root.min[a] as u32 && c[a] < root.max[a] as u32) {
+            match descend(tree, c, &mut s.paths[q]) {
+                Some(n) => cells[q] = n,
+                None => return [NONE; 4],
+            }
+        } else {
+            match halo.rung(c, edge_index(d, 1 - qu, 1 - qv), q) {
+                Some(r) => halo_rungs[q] = Some(r),
+                None => return [NONE; 4],
+            }
+        }
+    }
+    // The nodes all four cells share: above them the polygon has collapsed.
+    let shared = if cells.contains(&NONE) {
+        0
+    } else {
+        (1..4)
+            .map(|q| {
+                let (a, b) = (&s.paths[0], &s.paths[q]);
+                a.iter().zip(b.iter()).take_while(|(x, y)| x == y).count()
+            })
+            .min()
+            .unwrap_or(0)
+    };
+    for (q, &(qu, qv)) in QUADRANT.iter().enumerate() {
+        if let Some(r) = halo_rungs[q] {
+            s.ladders[q].clear();
+            s.ladders[q].push(r);
+        } else if !climb(
+            tree,
+            &s.paths[q],
+            shared,
+            edge_index(d, 1 - qu, 1 - qv),
+            &mut s.ladders[q],
+        ) {
+            return [NONE; 4];
+        }
+    }
+    let inside_low = !tree.is_outside(line);
+    s.errors.clear();
+    for l in &s.ladders {
+        s.errors.extend(l[1..].iter().map(|r| r.error));
+    }
+    s.errors.sort_unstable_by(f32::total_cmp);
+    s.errors.dedup();
+    // Per corner, its current rung: the highest within the threshold.
+    let mut at = [0usize; 4];
+    for &t in &s.errors {
+        let before = at;
+        for (q, l) in s.ladders.iter().enumerate() {
+            while at[q] + 1 < l.len() && l[at[q] + 1].error <= t {
+                at[q] += 1;
+            }
+        }
+        // The corners that climbed at this threshold (to the merge that may fold).
+        let mut climbed = [0, 1, 2, 3].map(|q| at[q] != before[q]);
+        loop {
+            let leaves = [0, 1, 2, 3].map(|q| s.ladders[q][at[q]]);
+            if faces(leaves, d, inside_low) {
+                break;
+            }
+            // Refuse the largest clustered leaf among the corners that just
+            // climbed (else among all), and look again.
+            let clustered = |q: &usize| {
+                tree.nodes
+                    .get(leaves[*q].node as usize)
+                    .is_some_and(|n| n.axis != CELL)
+            };
+            let largest = |q: &usize| {
+                let r = leaves[*q];
+                (volume(&tree.nodes[r.node as usize]), r.node)
+            };
+            let pick = (0..4)
+                .filter(|q| climbed[*q])
+                .filter(clustered)
+                .max_by_key(largest)
+                .or_else(|| (0..4).filter(clustered).max_by_key(largest));
+            let Some(q) = pick else {
+                break;
+            };
+            climbed = [false; 4];
+            let big = leaves[q];
+            let big = big.node;
+            refused.push(big);
+            for (q, l) in s.ladders.iter_mut().enumerate() {
+                if l.iter().any(|r| r.node == big) {
+                    l.retain(|r| r.node != big);
+                    at[q] = l.iter().rposition(|r| r.error <= t).unwrap_or(0);
+                }
+            }
+        }
+    }
+    cells
+}
+
+/// Cells in a node's box.
+fn volume(n: &KdNode) -> u64 {
+    (0..3).map(|a| (n.max[a] - n.min[a]) as u64).product()
+}
+
+/// Whether the polygon of the leaves `at` (in quadrant order) faces the way its
+/// edge along `d` crosses the surface.
+fn faces(at: [Rung; 4], d: usize, inside_low: bool) -> bool {
+    let mut poly = at;
+    let mut facing = Vec3::ZERO;
+    facing[d] = 1.0;
+    if !inside_low {
+        poly.reverse();
+        facing = -facing;
+    }
+    let mut pts = [(Vec3::ZERO, Vec3::ZERO); 4];
+    let mut k = 0;
+    for i in 0..4 {
+        let (a, b) = (poly[i], poly[(i + 3) % 4]);
+        if (a.node, a.local) != (b.node, b.local) {
+            pts[k] = (a.pos, a.normal);
+            k += 1;
+        }
+    }
+    let ok = |i: [usize; 3]| triangle_faces(i.map(|j| pts[j].0), i.map(|j| pts[j].1), facing);
+    match k {
+        3 => ok([0, 1, 2]),
+        4 => (ok([0, 1, 2]) && ok([0, 2, 3])) || (ok([0, 1, 3]) && ok([1, 2, 3])),
+        _ => true,
+    }
+}
