@@ -133,6 +133,11 @@ fn horizon(c: &mut Criterion) {
     let step = Vec3::new(50.0, 0.0, 10.0).normalize() * (50.0 / 60.0);
     let mut frames: Vec<f64> = Vec::new();
     let mut cpu: Vec<f64> = Vec::new();
+    // How far (cells) the camera is from where the shown layout was made for it,
+    // and how many level changes landed.
+    let mut lag: Vec<f32> = Vec::new();
+    let mut changes = 0usize;
+    let mut shown_for = Vec3::NAN;
     let mut g = c.benchmark_group("horizon_4096");
     g.sample_size(20).measurement_time(Duration::from_secs(20));
     g.bench_function("camera_flying_50_cells_per_s", |b| {
@@ -148,6 +153,17 @@ fn horizon(c: &mut Criterion) {
                 app.update();
                 cpu.push(thread_cpu_ms() - c0);
                 total += t.elapsed();
+                let state = app.world().get::<VolumeState>(volume).unwrap();
+                if let Some((_, keep)) = state.horizon_shown() {
+                    let at = app.world().get::<Transform>(cam).unwrap().translation;
+                    // Level-0 chunks of 32 cells of 1.
+                    let made_for = keep.camera * 32.0;
+                    if made_for != shown_for {
+                        shown_for = made_for;
+                        changes += 1;
+                    }
+                    lag.push(at.xz().distance(made_for.xz()));
+                }
                 frames.push(app.world().resource::<KdContourStats>().main_thread_ms);
                 // The rest of a 60 Hz frame, so the task threads mesh as they
                 // would in a game.
@@ -165,6 +181,13 @@ fn horizon(c: &mut Criterion) {
          p99 {p99:.3} ms, max {:.3} ms",
         frames.len(),
         frames.last().unwrap()
+    );
+    lag.sort_by(f32::total_cmp);
+    println!(
+        "horizon_4096: {changes} level changes shown; the camera is {:.0} cells (mean), \
+         {:.0} (max) along x and z from where the shown layout was made for it",
+        lag.iter().sum::<f32>() / lag.len().max(1) as f32,
+        lag.last().copied().unwrap_or(0.0)
     );
     cpu.sort_by(f64::total_cmp);
     let cpu_mean = cpu.iter().sum::<f64>() / cpu.len().max(1) as f64;
