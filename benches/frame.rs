@@ -122,12 +122,18 @@ fn horizon(c: &mut Criterion) {
     for (k, _) in state.shown_chunks() {
         *levels.entry(k.level).or_default() += 1;
     }
+    let stats = app.world().resource::<KdContourStats>();
     println!(
-        "horizon_4096: {} chunks {:?} (by level), {:.1} MB retained, whole view built in {:.1} s",
+        "horizon_4096: {} chunks {:?} (by level), {:.1} MB retained, whole view built in {:.1} s \
+         ({} builds of {:.1} ms and {} extractions of {:.1} ms, recent means)",
         state.shown_chunks().len(),
         levels,
         state.world().retained_bytes() as f64 / 1e6,
-        built.as_secs_f64()
+        built.as_secs_f64(),
+        stats.builds,
+        stats.build_ms,
+        stats.extractions,
+        stats.extract_ms,
     );
     // 50 cells a second at 60 frames a second, along x and a little z.
     let step = Vec3::new(50.0, 0.0, 10.0).normalize() * (50.0 / 60.0);

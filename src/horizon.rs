@@ -328,7 +328,11 @@ impl VolumeState {
                 blocked.extend(partners.get(k).into_iter().flatten());
             }
         }
-        drop_elsewhere((garbage, std::mem::replace(&mut self.seam_owners, owners)));
+        drop_elsewhere((
+            garbage,
+            std::mem::replace(&mut self.seam_owners, owners),
+            std::mem::replace(&mut self.seam_partners, partners),
+        ));
         for k in &touched {
             let slot = self.slots.get_mut(k).expect("kept");
             slot.held = !first;

@@ -119,6 +119,9 @@ pub struct VolumeState {
     /// A horizon volume's kept chunks and the chunks whose owned seams touch
     /// each (from its last layout).
     pub(crate) seam_owners: ChunkMap<Vec<ChunkKey>>,
+    /// Horizon volumes: for each kept chunk, the chunks of the seams it owns
+    /// (its extraction reads their trees), from the layout task.
+    pub(crate) seam_partners: ChunkMap<Vec<ChunkKey>>,
     /// A horizon volume's layout whose chunks are shown, and which of them.
     pub(crate) horizon_shown: Option<(Layout, HorizonKeep)>,
 }
@@ -136,6 +139,7 @@ impl VolumeState {
             transition: None,
             pending_layout: None,
             seam_owners: ChunkMap::default(),
+            seam_partners: ChunkMap::default(),
             horizon_shown: None,
         }
     }

@@ -75,9 +75,26 @@ impl VolumeState {
                 Work::Build => s.need_build && s.building.is_none(),
             })
             .map(|(c, _)| *c)
+            // An extraction reads the trees of its seams' chunks: one whose
+            // partner is about to change would be done again when it lands
+            // (a horizon's first load did each 2.5 times).
+            .filter(|c| matches!(work, Work::Build) || !self.partner_pending(c))
             .collect();
         self.nearest_first(&mut v);
         v
+    }
+
+    /// Whether a chunk of a seam `c` owns waits for a build.
+    fn partner_pending(&self, c: &ChunkKey) -> bool {
+        self.seam_partners.get(c).is_some_and(|ps| {
+            ps.iter().any(|p| {
+                p != c
+                    && self
+                        .slots
+                        .get(p)
+                        .is_some_and(|s| s.need_build || s.building.is_some())
+            })
+        })
     }
 
     /// Starts `work` on chunk `c`; false when no task was needed.
