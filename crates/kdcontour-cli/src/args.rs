@@ -1,11 +1,12 @@
 //! The options subcommands share: the input (`mesh`, `compare`, `world`) and the
 //! meshing run (`mesh`, `compare`).
 
+use kdcontour::boundary::CappedField;
 use kdcontour::field::volume::Inside;
 use kdcontour::io::input::{parse_uvec3, parse_vec3, Input as Loaded};
 use kdcontour::io::volume::{self, VoxelType};
 use kdcontour::validate::Checks;
-use kdcontour::{Field, Grid, Settings};
+use kdcontour::{Boundary, Field, Grid, Settings};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -144,6 +145,11 @@ pub struct RunArgs {
     /// for `compare`).
     #[arg(long)]
     pub json: bool,
+    /// What a surface does where it leaves the grid: `open` (ends half a cell
+    /// inside) or `capped` (closed by caps on the grid's faces; checked against
+    /// the field cut by the grid's box).
+    #[arg(long, default_value = "open")]
+    pub boundary: String,
     /// Skip the costly checks (crossing and overlapping triangles, the two-sided
     /// distance and the lost surface); the others always run.
     #[arg(long)]
@@ -160,9 +166,20 @@ impl RunArgs {
                 self.threshold
             ));
         }
+        let boundary = Boundary::parse(&self.boundary).ok_or(format!(
+            "--boundary must be `open` or `capped`, got `{}`",
+            self.boundary
+        ))?;
         let loaded = input.load()?;
         let grid = loaded.grid(self.res).map_err(|e| e.to_string())?;
-        Ok((loaded, grid, threads(self.threads)))
+        Ok((
+            loaded,
+            grid,
+            Settings {
+                boundary,
+                ..threads(self.threads)
+            },
+        ))
     }
 
     /// What to check a mesh of `field` on `grid` for.
@@ -176,6 +193,12 @@ impl RunArgs {
             Checks::all(field, grid)
         }
     }
+}
+
+/// The field a capped mesh of `field` on `grid` is checked against (the field cut
+/// by the grid's box), or `None` for open meshes (checked against `field`).
+pub fn capped<'a>(field: &'a dyn Field, grid: &Grid, s: &Settings) -> Option<CappedField<'a>> {
+    (s.boundary == Boundary::Capped).then(|| CappedField::new(field, grid))
 }
 
 /// Default settings on `threads` worker threads (0 = all cores).

@@ -17,7 +17,11 @@ pub struct Compare {
 pub fn run(args: Compare) -> Result<(), String> {
     let (loaded, grid, settings) = args.run.prepare(&args.input)?;
     let (scene, field) = (&loaded.name, &*loaded.field);
-    let checks = args.run.checks(field, &grid);
+    let capped = crate::args::capped(field, &grid, &settings);
+    let checked = capped
+        .as_ref()
+        .map_or(field, |c| c as &dyn kdcontour::Field);
+    let checks = args.run.checks(checked, &grid);
     let RunArgs {
         res,
         threshold,

@@ -24,7 +24,11 @@ pub fn run(args: Mesh) -> Result<(), String> {
     crate::args::check_out(out.as_deref())?;
     let (loaded, grid, settings) = run.prepare(&input)?;
     let (scene, field) = (&loaded.name, &*loaded.field);
-    let checks = run.checks(field, &grid);
+    let capped = crate::args::capped(field, &grid, &settings);
+    let checked = capped
+        .as_ref()
+        .map_or(field, |c| c as &dyn kdcontour::Field);
+    let checks = run.checks(checked, &grid);
     let RunArgs {
         res,
         threshold,
