@@ -171,6 +171,9 @@ impl RunArgs {
             self.boundary
         ))?;
         let loaded = input.load()?;
+        for w in &loaded.warnings {
+            eprintln!("warning: {w}");
+        }
         let grid = loaded.grid(self.res).map_err(|e| e.to_string())?;
         Ok((
             loaded,

@@ -25,6 +25,9 @@ pub struct Input {
     /// Whether the field exists only inside `bounds` (a volume), so every axis of
     /// the box needs cells of its own.
     pub sampled: bool,
+    /// What the loader fixed and the user should hear about (an inside-out mesh
+    /// turned outward).
+    pub warnings: Vec<String>,
 }
 
 /// The largest scene file read (64 MiB).
@@ -39,6 +42,7 @@ impl Input {
             field: s.field,
             bounds: None,
             sampled: false,
+            warnings: Vec::new(),
         })
     }
 
@@ -53,6 +57,7 @@ impl Input {
             field: Box::new(field),
             bounds: None,
             sampled: false,
+            warnings: Vec::new(),
         })
     }
 
@@ -64,19 +69,29 @@ impl Input {
             field: Box::new(volume),
             bounds: Some(bounds),
             sampled: true,
+            warnings: Vec::new(),
         }
     }
 
     /// An `.obj` or `.ply` triangle mesh as a signed distance field, bounded by its
-    /// vertices.
+    /// vertices. An inside-out mesh is turned outward, with a warning
+    /// ([`MeshSdf::new`]).
     pub fn mesh(path: &Path) -> Result<Input> {
         let sdf = MeshSdf::new(&load_mesh(path)?);
         let bounds = sdf.bounds();
+        let mut warnings = Vec::new();
+        if sdf.inside_out() {
+            warnings.push(format!(
+                "{}: every face of the mesh faces inward (its enclosed volume is negative), so it was meshed turned outward",
+                path.display()
+            ));
+        }
         Ok(Input {
             name: path.display().to_string(),
             field: Box::new(sdf),
             bounds: Some(bounds),
             sampled: false,
+            warnings,
         })
     }
 

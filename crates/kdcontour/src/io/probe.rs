@@ -33,6 +33,7 @@ pub fn load(target: &str, data: &[u8]) -> Result<Input, String> {
         field,
         bounds,
         sampled,
+        warnings: Vec::new(),
     };
     match target {
         "scene_json" => {
