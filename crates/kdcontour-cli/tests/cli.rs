@@ -61,12 +61,24 @@ fn json_is_exactly_one_line_with_every_key() {
         "surface_to_mesh_mean",
         "surface_points",
         "lost_surface",
+        "fold_bucket_degrees",
+        "fold_histogram",
+        "fold_max_degrees",
+        "fold_mean_degrees",
+        "folded_triangles",
+        "folded_share",
+        "folds_near_creases",
+        "fold_no_gradient",
     ] {
         assert!(v.get(key).is_some(), "missing {key}: {out}");
     }
     // Every check ran: the torus has no defect and loses nothing.
     assert_eq!(v["crossing_pairs"], 0);
     assert_eq!(v["flipped_triangles"], 0);
+    assert_eq!(v["folded_triangles"], 0);
+    let histogram = v["fold_histogram"].as_array().unwrap();
+    let sum: u64 = histogram.iter().map(|n| n.as_u64().unwrap()).sum();
+    assert_eq!(sum, v["triangles"].as_u64().unwrap());
     assert_eq!(v["lost_surface"], 0.0);
     assert!(v["surface_points"].as_u64().unwrap() > 100);
     assert_eq!(v["mesher"], "kdtree");

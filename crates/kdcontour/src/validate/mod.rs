@@ -1,7 +1,8 @@
 //! The mesh checker every test uses: watertight, edge- and vertex-manifold,
 //! consistently oriented, Euler characteristic, components; zero-area faces,
-//! slivers and coincident vertices; against the field, the error and flipped
-//! faces; and, on request ([`Checks`]), crossing and overlapping triangles and a
+//! slivers and coincident vertices; against the field, the error, flipped
+//! faces and the fold measure ([`Folds`]: the angle between each face's normal
+//! and the gradient); and, on request ([`Checks`]), crossing and overlapping triangles and a
 //! two-sided distance between mesh and surface.
 //!
 //! ## The distances, in cells
@@ -34,11 +35,13 @@
 
 mod distance;
 mod faces;
+mod folds;
 mod spatial;
 mod tritri;
 
 pub use distance::{DISTANCE_CAP_CELLS, LOST_CELLS};
 pub use faces::{SLIVER_DEGREES, ZERO_AREA_CELLS2};
+pub use folds::{Folds, CREASE_DEGREES, FOLD_BUCKET_DEGREES, FOLD_DEGREES};
 
 use crate::field::Field;
 use crate::grid::Grid;
@@ -97,6 +100,9 @@ pub struct MeshReport {
     /// Triangles of nonzero area whose normal points against the field's gradient
     /// at their centroid (`None` without a field).
     pub flipped_triangles: Option<usize>,
+    /// The angles between face normals and the field's gradient, and the faces
+    /// folded away from creases (`None` without a field; see [`Folds`]).
+    pub folds: Option<Folds>,
     /// Crossing and overlapping pairs (`None` unless [`Checks::intersections`]).
     pub intersections: Option<Intersections>,
     /// The two-sided distance (`None` unless [`Checks::surface`]).
@@ -304,6 +310,7 @@ pub fn validate_with(mesh: &IndexedMesh, checks: &Checks) -> MeshReport {
         r.mean_error = s.mean_error;
         r.max_vertex_error = s.max_vertex_error;
         r.flipped_triangles = Some(s.flipped);
+        r.folds = Some(folds::folds(f, cell, &mesh.positions, &tris, &faces.listed));
     }
     let grid = (checks.intersections || checks.surface.is_some())
         .then(|| spatial::TriGrid::new(&mesh.positions, &tris, &faces.listed, cell));
