@@ -261,8 +261,11 @@ pub(crate) struct SurfaceToMesh {
 /// distances only. `points` and `lost` are `grid`'s crossings, the surface the
 /// mesher saw (the shifted grid also sees features thinner than a cell that
 /// `grid` misses).
+///
+/// The maximum also sees the crossings of a lattice [`REFINE`] times finer inside
+/// every cell of `grid` with a sign change among its corners.
 pub(crate) fn surface_to_mesh(field: &dyn Field, grid: &Grid, tris: &TriGrid) -> SurfaceToMesh {
-    let mut s = crossings_to_mesh(field, grid, tris);
+    let mut s = crossings_to_mesh(field, grid, tris, true);
     if grid.cells.min_element() >= 2 {
         let shifted = Grid {
             origin: grid.corner_pos(UVec3::ZERO) + Vec3::splat(0.5 * grid.cell_size),
@@ -270,7 +273,7 @@ pub(crate) fn surface_to_mesh(field: &dyn Field, grid: &Grid, tris: &TriGrid) ->
             offset: glam::IVec3::ZERO,
             ..*grid
         };
-        let t = crossings_to_mesh(field, &shifted, tris);
+        let t = crossings_to_mesh(field, &shifted, tris, false);
         let n = s.points + t.points;
         if n > 0 {
             // Mean over both sets of crossings.
@@ -285,10 +288,58 @@ pub(crate) fn surface_to_mesh(field: &dyn Field, grid: &Grid, tris: &TriGrid) ->
 /// Cells per side of the blocks [`crossings_to_mesh`] samples at once.
 const BLOCK: u32 = 8;
 
+/// Each cell with a sign change among its corners is sampled again on a lattice
+/// this many times finer, whose crossings count in the surface-to-mesh maximum.
+/// The grid's own crossings are a cell apart and missed the places farthest from
+/// the mesh (a box's edges, which a coarse mesh cuts): at res 24 the maximum was
+/// 0.135 cells on `box` against 0.212 by brute force, and 0.128 against 0.154 on
+/// a smooth volume (`tests/distance_agrees.rs`).
+const REFINE: u32 = 3;
+
+/// The largest distance to the mesh of the crossings of the [`REFINE`] times
+/// finer lattice in cell `cell` of `grid`.
+fn refined_max(field: &dyn Field, grid: &Grid, cell: UVec3, tris: &TriGrid, cap: f32) -> f32 {
+    let m = REFINE + 1;
+    let base = grid.corner_pos(cell);
+    let h = grid.cell_size / REFINE as f32;
+    let at = |k: UVec3| base + k.as_vec3() * h;
+    let mut v = Vec::with_capacity((m * m * m) as usize);
+    for z in 0..m {
+        for y in 0..m {
+            for x in 0..m {
+                v.push(field.value(at(UVec3::new(x, y, z))));
+            }
+        }
+    }
+    let idx = |k: UVec3| ((k.z * m + k.y) * m + k.x) as usize;
+    let mut max = 0f32;
+    for i in 0..v.len() as u32 {
+        let k = UVec3::new(i % m, (i / m) % m, i / (m * m));
+        for n in [k + UVec3::X, k + UVec3::Y, k + UVec3::Z] {
+            if n.cmpge(UVec3::splat(m)).any() {
+                continue;
+            }
+            let (f0, f1) = (v[idx(k)], v[idx(n)]);
+            if !(f0.is_finite() && f1.is_finite()) || outside(f0) == outside(f1) {
+                continue;
+            }
+            let q = crossing(field, at(k), f0, at(n), f1, ROOT_TOL_CELLS * grid.cell_size);
+            max = max.max(tris.nearest(q, cap));
+        }
+    }
+    max
+}
+
 /// [`surface_to_mesh`] on the edges of one grid, block by block in parallel.
 /// With a Lipschitz bound, a block whose centre is farther from the surface than
-/// its half diagonal allows has no crossing and is not sampled.
-fn crossings_to_mesh(field: &dyn Field, grid: &Grid, tris: &TriGrid) -> SurfaceToMesh {
+/// its half diagonal allows has no crossing and is not sampled. With `refine`,
+/// cells with a sign change add their [`refined_max`] to the maximum.
+fn crossings_to_mesh(
+    field: &dyn Field,
+    grid: &Grid,
+    tris: &TriGrid,
+    refine: bool,
+) -> SurfaceToMesh {
     let cell = grid.cell_size;
     let cap = DISTANCE_CAP_CELLS * cell;
     let lost_at = LOST_CELLS * cell;
@@ -347,6 +398,17 @@ fn crossings_to_mesh(field: &dyn Field, grid: &Grid, tris: &TriGrid) -> SurfaceT
                             acc.1 += d as f64;
                             acc.2 += 1;
                             acc.3 += (d > lost_at) as usize;
+                        }
+                        let in_block = (k + UVec3::ONE).cmplt(c).all();
+                        if refine && in_block {
+                            let first = outside(f0);
+                            let mixed = (1..8u32).any(|i| {
+                                let o = UVec3::new(i & 1, (i >> 1) & 1, i >> 2);
+                                outside(at(k + o)) != first
+                            });
+                            if mixed {
+                                acc.0 = acc.0.max(refined_max(field, grid, lo + k, tris, cap));
+                            }
                         }
                     }
                 }
