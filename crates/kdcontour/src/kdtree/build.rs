@@ -365,7 +365,7 @@ fn slab_split(
 ) -> (usize, u16, Qef, Qef) {
     let f = thick.trailing_zeros() as usize;
     let axis = f / 2;
-    let split = if f % 2 == 0 {
+    let split = if f.is_multiple_of(2) {
         min[axis] + 1
     } else {
         max[axis] - 1

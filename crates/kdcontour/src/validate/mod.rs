@@ -22,8 +22,9 @@
 //!   normal).
 //! - [`Distance::surface_to_mesh_max`] is how much surface the mesh misses: the
 //!   largest distance from a surface point (every crossing of the edges of the
-//!   sampling grid and of that grid shifted by half a cell, found by false
-//!   position on the field) to the nearest triangle, exactly.
+//!   sampling grid, of that grid shifted by half a cell, and of a lattice three
+//!   times finer inside every cell with a sign change, found by false position on
+//!   the field) to the nearest triangle, exactly.
 //!   [`Distance::lost_surface`] is the share of the sampling grid's own crossings
 //!   (the surface the mesher saw) farther than [`LOST_CELLS`] cells; the shifted
 //!   grid also sees features thinner than a cell, which no mesh of the grid can
@@ -31,7 +32,11 @@
 //!
 //! Both are searched up to [`DISTANCE_CAP_CELLS`] cells: that value means "at
 //! least that far". Their maximum is the two-sided (Hausdorff) distance as far as
-//! the samples see it.
+//! the samples see it. Against a brute-force two-sided distance (both meshes
+//! sampled a sixth of a cell apart, the surface a four times finer uniform mesh)
+//! the figures agree within 10% or 0.02 cells on the sphere, the torus and a smooth
+//! volume; on other scenes they do not yet (`tests/distance_agrees.rs` lists where
+//! and why).
 
 mod distance;
 mod faces;
