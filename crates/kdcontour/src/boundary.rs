@@ -124,7 +124,7 @@ impl Cap {
 
 /// The solid of a field cut by a box: `max(f, box)`, where `box` is the box's
 /// signed distance. The surface a capped mesh approximates, so the checks of
-/// [`crate::validate`] measure caps against the box's faces.
+/// [`validate`](mod@crate::validate) measure caps against the box's faces.
 pub struct CappedField<'a> {
     field: &'a dyn Field,
     lo: Vec3,

@@ -130,7 +130,7 @@ pub enum Partition {
 /// What a surface that runs out through the grid's faces does there. A surface
 /// closed inside the grid gives the same mesh either way.
 ///
-/// Applies to single-grid builds ([`crate::KdTree::build`], [`crate::mesh`],
+/// Applies to single-grid builds ([`crate::KdTree::build`], [`crate::mesh()`],
 /// [`crate::meshers`]); a chunk world has no grid boundary inside it (its chunks
 /// meet at seams) and ignores it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]

@@ -32,7 +32,8 @@ pub const FOLD_DEGREES: f32 = 60.0;
 /// centroid marks a crease there.
 pub const CREASE_DEGREES: f32 = 30.0;
 
-/// The fold measure of a mesh against its field (see the [module docs](self)).
+/// The fold measure of a mesh against its field (what counts as a fold and a
+/// crease: [`FOLD_DEGREES`], [`CREASE_DEGREES`]).
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Folds {
     /// Faces per angle bucket ([`FOLD_BUCKET_DEGREES`]).
