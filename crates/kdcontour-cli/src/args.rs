@@ -1,12 +1,14 @@
-//! The options subcommands share: the input (`mesh`, `compare`, `world`) and the
-//! meshing run (`mesh`, `compare`).
+//! The options subcommands share: the input (`mesh`, `compare`, `world`), the
+//! meshing run (`mesh`, `compare`) and the memory budget (every command that
+//! allocates).
 
 use kdcontour::boundary::CappedField;
+use kdcontour::budget::Size;
 use kdcontour::field::volume::Inside;
 use kdcontour::io::input::{parse_uvec3, parse_vec3, Input as Loaded};
 use kdcontour::io::volume::{self, VoxelType};
 use kdcontour::validate::Checks;
-use kdcontour::{Boundary, Field, Grid, Settings};
+use kdcontour::{Boundary, Budget, Error, Field, Grid, Settings};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -60,6 +62,24 @@ pub struct SceneInput {
     scene_file: Option<PathBuf>,
 }
 
+/// `--memory-budget`, on every command that allocates.
+#[derive(clap::Args)]
+pub struct Memory {
+    /// The most memory the command may use, for everything it holds at once (a
+    /// loaded volume or mesh and the grid meshed from it; every chunk of a world
+    /// together), checked before anything is allocated: bytes, or a size with a
+    /// unit, e.g. 512MB or 4GiB (KB, MB, GB, TB are powers of 1000; KiB, MiB,
+    /// GiB, TiB of 1024).
+    #[arg(
+        long = "memory-budget",
+        value_name = "SIZE",
+        default_value = "4GiB",
+        value_parser = Budget::parse,
+        allow_negative_numbers = true
+    )]
+    pub budget: Budget,
+}
+
 impl SceneInput {
     /// The scene or scene file named on the command line.
     pub fn load(&self) -> Result<Loaded, String> {
@@ -79,15 +99,16 @@ fn load_scene(name: Option<&str>, file: Option<&Path>) -> Option<Result<Loaded, 
 }
 
 impl Input {
-    /// The scene, scene file, volume or mesh named on the command line.
-    pub fn load(&self) -> Result<Loaded, String> {
+    /// The scene, scene file, volume or mesh named on the command line, loaded
+    /// within `budget`.
+    pub fn load(&self, budget: Budget) -> Result<Loaded, String> {
         let src = &self.source;
         if let Some(loaded) = load_scene(src.scene.as_deref(), src.scene_file.as_deref()) {
             loaded
         } else if let Some(path) = &src.volume {
-            self.volume(path)
+            self.volume(path, budget)
         } else {
-            Loaded::mesh(src.mesh.as_ref().expect("clap requires one input"))
+            Loaded::mesh_within(src.mesh.as_ref().expect("clap requires one input"), budget)
                 .map_err(|e| e.to_string())
         }
     }
@@ -95,7 +116,7 @@ impl Input {
     /// The volume at `path`: NIfTI-1 by its extension, else raw voxels laid out as
     /// `--dims`, `--type` and `--spacing` say. An `--iso` outside the voxels'
     /// values is an error (there would be no surface).
-    fn volume(&self, path: &Path) -> Result<Loaded, String> {
+    fn volume(&self, path: &Path, budget: Budget) -> Result<Loaded, String> {
         let inside = match self.inside.as_str() {
             "above" => Inside::Above,
             "below" => Inside::Below,
@@ -109,7 +130,7 @@ impl Input {
             .iso
             .ok_or("--iso is required with --volume (the value the surface is drawn at)")?;
         let vol = if volume::is_nifti(path) {
-            volume::load_nifti(path, iso, inside)
+            volume::load_nifti_within(path, iso, inside, budget)
         } else {
             let dims = self
                 .dims
@@ -120,7 +141,9 @@ impl Input {
                 .ok_or("a raw volume needs --type u8|u16|i16|f32")?;
             let ty = VoxelType::parse(ty)
                 .ok_or(format!("--type must be u8, u16, i16 or f32, got `{ty}`"))?;
-            volume::load_raw(path, dims, ty, self.spacing, iso, inside)
+            let spacing = self.spacing;
+            let layout = volume::RawLayout { dims, ty, spacing };
+            volume::load_raw_within(path, layout, iso, inside, budget)
         }
         .map_err(|e| e.to_string())?;
         vol.check_iso(iso)
@@ -154,11 +177,14 @@ pub struct RunArgs {
     /// distance and the lost surface); the others always run.
     #[arg(long)]
     pub quick_checks: bool,
+    #[command(flatten)]
+    pub memory: Memory,
 }
 
 impl RunArgs {
     /// Checks the threshold, loads the input and fits its grid: the set-up `mesh`
-    /// and `compare` share.
+    /// and `compare` share. The grid's build gets what is left of the budget once
+    /// the input is held.
     pub fn prepare(&self, input: &Input) -> Result<(Loaded, Grid, Settings), String> {
         if !self.threshold.is_finite() {
             return Err(format!(
@@ -170,17 +196,19 @@ impl RunArgs {
             "--boundary must be `open` or `capped`, got `{}`",
             self.boundary
         ))?;
-        let loaded = input.load()?;
+        let budget = self.memory.budget;
+        let loaded = input.load(budget)?;
         for w in &loaded.warnings {
             eprintln!("warning: {w}");
         }
         let grid = loaded.grid(self.res).map_err(|e| e.to_string())?;
+        let left = budget.less(loaded.held_bytes);
         Ok((
             loaded,
             grid,
             Settings {
                 boundary,
-                ..threads(self.threads)
+                ..settings(self.threads, left)
             },
         ))
     }
@@ -204,11 +232,25 @@ pub fn capped<'a>(field: &'a dyn Field, grid: &Grid, s: &Settings) -> Option<Cap
     (s.boundary == Boundary::Capped).then(|| CappedField::new(field, grid))
 }
 
-/// Default settings on `threads` worker threads (0 = all cores).
-pub fn threads(threads: usize) -> Settings {
+/// Default settings on `threads` worker threads (0 = all cores) within `budget`.
+pub fn settings(threads: usize, budget: Budget) -> Settings {
     Settings {
         threads,
+        memory_budget: budget,
         ..Default::default()
+    }
+}
+
+/// A failed build of `loaded`, named; a grid over the budget says how much of
+/// `--memory-budget` the input itself already holds.
+pub fn build_error(loaded: &Loaded, e: Error) -> String {
+    match e {
+        Error::MemoryBudget { .. } if loaded.held_bytes > 0 => format!(
+            "{}: {e} (that is what --memory-budget leaves once the input's {} are held)",
+            loaded.name,
+            Size(loaded.held_bytes)
+        ),
+        e => format!("{}: {e}", loaded.name),
     }
 }
 

@@ -28,7 +28,8 @@ pub fn run(args: Compare) -> Result<(), String> {
         json,
         ..
     } = args.run;
-    let sampled = meshers::sample(field, &grid, &settings).map_err(|e| format!("{scene}: {e}"))?;
+    let sampled = meshers::sample(field, &grid, &settings)
+        .map_err(|e| crate::args::build_error(&loaded, e))?;
     if !json {
         say!("{scene} at res {res}, threshold {threshold} (errors in cells)");
         say!(

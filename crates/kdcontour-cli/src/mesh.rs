@@ -49,8 +49,8 @@ pub fn run(args: Mesh) -> Result<(), String> {
         ..
     } = run;
     let t0 = Instant::now();
-    let (mesh, times, tree) =
-        make(mesher, field, &grid, threshold, &settings).map_err(|e| format!("{scene}: {e}"))?;
+    let (mesh, times, tree) = make(mesher, field, &grid, threshold, &settings)
+        .map_err(|e| crate::args::build_error(&loaded, e))?;
     let t1 = Instant::now();
     let report = validate_with(&mesh, &checks);
     let t2 = Instant::now();

@@ -1,6 +1,7 @@
 //! `kdcontour phantom`: a synthetic CT scan (the 3-D Shepp-Logan head phantom)
 //! written as NIfTI.
 
+use crate::args::Memory;
 use kdcontour::io::volume;
 use std::path::PathBuf;
 
@@ -12,10 +13,12 @@ pub struct Phantom {
     /// The .nii or .nii.gz file to write (any case; other names are refused).
     #[arg(long)]
     out: PathBuf,
+    #[command(flatten)]
+    memory: Memory,
 }
 
 pub fn run(args: Phantom) -> Result<(), String> {
-    let Phantom { res, out } = args;
+    let Phantom { res, out, memory } = args;
     if !(8..=1024).contains(&res) {
         return Err(format!("--res must be 8 to 1024, got {res}"));
     }
@@ -26,6 +29,12 @@ pub fn run(args: Phantom) -> Result<(), String> {
         ));
     }
     kdcontour::io::check_writable(&out).map_err(|e| format!("--out {e}"))?;
+    // The voxels, and the file's bytes while they are written.
+    let voxels = (res as u64).pow(3);
+    memory
+        .budget
+        .check(format!("a phantom of {res}^3 voxels"), voxels * 8 + 352)
+        .map_err(|e| e.to_string())?;
     volume::write_nifti(&out, &volume::phantom(res)).map_err(|e| e.to_string())?;
     say!(
         "wrote {} ({res}^3 voxels; the skull is at --iso 1.5)",

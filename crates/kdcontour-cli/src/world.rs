@@ -4,7 +4,7 @@
 
 mod levels;
 
-use crate::args::{threads, SceneInput};
+use crate::args::{settings, Memory, SceneInput};
 use crate::output::print_checks;
 use kdcontour::io::input::{parse_uvec3, parse_vec3};
 use kdcontour::{validate, ChunkWorld, Field, IndexedMesh, Lod, MeshReport};
@@ -50,6 +50,8 @@ pub struct World {
     /// Print one JSON line instead of a summary.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    memory: Memory,
 }
 
 /// How chunks get their thresholds.
@@ -131,6 +133,7 @@ pub fn run(args: World) -> Result<(), String> {
         out,
         threads: n_threads,
         json,
+        memory,
         ..
     } = args;
     let chunks = chunks.unwrap_or(glam::UVec3::splat(3));
@@ -142,7 +145,7 @@ pub fn run(args: World) -> Result<(), String> {
         chunk_res,
         chunks,
         0.01,
-        threads(n_threads),
+        settings(n_threads, memory.budget),
     )
     .map_err(|e| e.to_string())?;
     let t0 = Instant::now();

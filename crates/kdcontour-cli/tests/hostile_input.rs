@@ -1,55 +1,13 @@
 //! Issue 14 from the command line: every hostile input ends with exit status 2
 //! and one line that names what is wrong and what to do; `--out` is checked
 //! before any work and never touched by a failed command; a closed stdout ends a
-//! command quietly.
+//! command quietly. Every run has its memory capped (about 100 MB) and a hang
+//! guard (see `common`).
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::{cat, dir, kdcontour, nifti_header, refused, s, BIN, WORLD};
 use std::process::{Command, Stdio};
-
-const BIN: &str = env!("CARGO_BIN_EXE_kdcontour");
-
-/// A small world with camera thresholds.
-const WORLD: [&str; 5] = ["world", "--scene", "sphere", "--camera", "0,0,0"];
-
-fn kdcontour(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(BIN).args(args).output().expect("runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("kdcontour-hostile-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// Runs `args`, expects status 2 and a one-line error containing every needle.
-fn refused(args: &[&str], needles: &[&str]) {
-    let (code, out, err) = kdcontour(args);
-    assert_eq!(code, 2, "{args:?}\nstdout: {out}\nstderr: {err}");
-    let first = err.lines().next().unwrap_or("");
-    assert!(first.starts_with("error: "), "{args:?}: {err}");
-    // clap adds a usage hint after a blank line; our own errors are one line.
-    assert!(
-        err.lines().count() == 1 || err.contains("For more information"),
-        "{args:?}: {err}"
-    );
-    for n in needles {
-        assert!(first.contains(n), "{args:?}: missing `{n}` in\n{first}");
-    }
-}
-
-/// `a` then `b`.
-fn cat<'a>(a: &[&'a str], b: &[&'a str]) -> Vec<&'a str> {
-    [a, b].concat()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 #[test]
 fn raw_volume_sizes_are_checked_before_reading() {
@@ -151,22 +109,90 @@ fn silent_garbage_is_now_an_error() {
         &["world", "--scene", "sphere", "--levels", "camera:0,inf,0"],
         &["`inf` is not a finite number"],
     );
-    // A NIfTI whose pixdim is NaN.
+    // --iso below the data: an error too, not a box.
+    refused(
+        &cat(&base, &["--iso", "-5", "--out", s(&out)]),
+        &["--iso", "outside the voxel values (0 to 249)"],
+    );
+    assert!(!out.exists());
+    // 256,256,4 voxels at the default res: the thin axis gets 0.75 cells.
+    let flat = d.join("flat.raw");
+    let ramp: Vec<u8> = (0..256 * 256 * 4).map(|i| (i % 250) as u8).collect();
+    std::fs::write(&flat, ramp).unwrap();
+    refused(
+        &[
+            "mesh",
+            "--volume",
+            s(&flat),
+            "--dims",
+            "256,256,4",
+            "--type",
+            "u8",
+            "--iso",
+            "3",
+        ],
+        &["flat.raw", "0.75 cells", "use res 170 or more"],
+    );
+    // A NIfTI whose pixdim is NaN, and one whose pixdim is 1e-30.
     let nii = d.join("nan.nii");
-    let mut h = vec![0u8; 352];
-    h[0..4].copy_from_slice(&348i32.to_le_bytes());
-    for (i, v) in [3i16, 2, 2, 2, 1, 1, 1, 1].iter().enumerate() {
-        h[40 + 2 * i..42 + 2 * i].copy_from_slice(&v.to_le_bytes());
-    }
-    h[70..72].copy_from_slice(&2i16.to_le_bytes());
-    h[80..84].copy_from_slice(&f32::NAN.to_le_bytes());
-    h[108..112].copy_from_slice(&352f32.to_le_bytes());
-    h[344..348].copy_from_slice(b"n+1\0");
+    let mut h = nifti_header([2, 2, 2], [f32::NAN, 1.0, 1.0]);
     h.extend([0, 1, 2, 3, 4, 5, 6, 7]);
     std::fs::write(&nii, h).unwrap();
     refused(
         &["mesh", "--volume", s(&nii), "--iso", "3"],
         &["nan.nii", "pixdim", "finite and non-zero"],
+    );
+    let thin = d.join("thin.nii");
+    let mut h = nifti_header([2, 2, 2], [1e-30, 1.0, 1.0]);
+    h.extend([0, 1, 2, 3, 4, 5, 6, 7]);
+    std::fs::write(&thin, h).unwrap();
+    refused(
+        &["mesh", "--volume", s(&thin), "--iso", "3"],
+        &["thin.nii", "at least 2 are needed", "no res can mesh it"],
+    );
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn a_gzip_bomb_inflates_no_further_than_its_header_says() {
+    use std::io::Write;
+    let d = dir("bomb");
+    // 4x4x4 voxels (a ramp, a surface at 30), then 256 MiB of zeros that
+    // compress to about 256 KB: only the header's 64 voxels are inflated (all of
+    // it would pass the memory cap the run is held under).
+    let mut body = nifti_header([4, 4, 4], [1.0; 3]);
+    body.extend(0..64u8);
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::best());
+    gz.write_all(&body).unwrap();
+    let zeros = vec![0u8; 1 << 20];
+    for _ in 0..256 {
+        gz.write_all(&zeros).unwrap();
+    }
+    let bomb = d.join("bomb.nii.gz");
+    std::fs::write(&bomb, gz.finish().unwrap()).unwrap();
+    assert!(std::fs::metadata(&bomb).unwrap().len() < 1 << 20);
+    let (code, out, err) = kdcontour(&["mesh", "--volume", s(&bomb), "--iso", "30", "--res", "8"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("triangles") && !out.contains(" 0 triangles"),
+        "{out}"
+    );
+    // A header whose volume is past the budget: refused before inflating.
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::best());
+    gz.write_all(&nifti_header([2048, 2048, 2048], [1.0; 3]))
+        .unwrap();
+    for _ in 0..64 {
+        gz.write_all(&zeros).unwrap();
+    }
+    let big = d.join("big.nii.gz");
+    std::fs::write(&big, gz.finish().unwrap()).unwrap();
+    refused(
+        &["mesh", "--volume", s(&big), "--iso", "1"],
+        &[
+            "big.nii.gz",
+            "2048x2048x2048 voxels",
+            "over the memory budget of 4 GiB",
+        ],
     );
     std::fs::remove_dir_all(&d).ok();
 }
@@ -206,7 +232,12 @@ fn hostile_meshes_and_scenes() {
     );
     refused(
         &["mesh", "--scene-file", s(&far), "--res", "8"],
-        &["far.json: ", "noise evaluated too far"],
+        &[
+            "far.json: ",
+            "scene node `root.child` (heightfield)",
+            "noise evaluated too far",
+            "keep the node within",
+        ],
     );
     let node = write(
         "node.json",
@@ -216,16 +247,20 @@ fn hostile_meshes_and_scenes() {
         &["mesh", "--scene-file", s(&node)],
         &["root.children[1]", "missing field `radius`"],
     );
+    // The issue's 50 MB type name: one short line, within the memory cap.
     let long = write(
         "long.json",
-        &format!(r#"{{"type":"{}"}}"#, "x".repeat(1 << 20)),
+        &format!(r#"{{"type":"{}"}}"#, "x".repeat(50 << 20)),
+    );
+    refused(
+        &["mesh", "--scene-file", s(&long)],
+        &[
+            "long.json: ",
+            "line 1, column 9: a string of 52428800 bytes",
+        ],
     );
     let (_, _, err) = kdcontour(&["mesh", "--scene-file", s(&long)]);
-    assert!(
-        err.len() < 1000 && err.contains("1048576 bytes in all"),
-        "{} bytes",
-        err.len()
-    );
+    assert!(err.len() < 400, "{} bytes", err.len());
     let mut deep = r#"{"type":"sphere","radius":1}"#.to_string();
     for _ in 0..40 {
         deep = format!(r#"{{"type":"union","children":[{deep}]}}"#);
@@ -306,8 +341,11 @@ fn world_help_lists_only_what_world_accepts() {
 
 #[test]
 fn a_reader_that_closes_early_ends_every_command_quietly() {
+    let d = dir("pipe");
+    let head = d.join("head.nii");
     for args in [
-        &["scenes"][..],
+        &["phantom", "--res", "8", "--out", s(&head)][..],
+        &["scenes"],
         &["mesh", "--scene", "sphere", "--res", "8"],
         &["mesh", "--scene", "sphere", "--res", "8", "--json"],
         &["compare", "--scene", "sphere", "--res", "8"],
@@ -336,4 +374,5 @@ fn a_reader_that_closes_early_ends_every_command_quietly() {
         assert_eq!(out.status.code(), Some(0), "{args:?}: {err}");
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
+    std::fs::remove_dir_all(&d).ok();
 }

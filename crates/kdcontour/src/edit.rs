@@ -171,6 +171,15 @@ impl Field for EditedField {
         self.apply(p, self.base.value(p))
     }
 
+    /// The base field's explanation, or the first brush's that has one.
+    fn explain_non_finite(&self, p: Vec3) -> Option<String> {
+        self.base.explain_non_finite(p).or_else(|| {
+            self.edits
+                .iter()
+                .find_map(|e| e.field.explain_non_finite(p))
+        })
+    }
+
     /// The base field's own batched sampling (one noise evaluation per column for a
     /// height field), then the brushes corner by corner.
     fn sample_grid(

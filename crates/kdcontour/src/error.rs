@@ -1,6 +1,7 @@
 //! The one error type of the core: every failure a user can cause, with a message
 //! that says what to change.
 
+use crate::budget::Size;
 use glam::Vec3;
 
 /// Everything that can go wrong when sampling, building or loading.
@@ -11,23 +12,23 @@ pub enum Error {
     #[error("invalid grid: {0}")]
     InvalidGrid(String),
     /// The field returned NaN or infinity at a sample point.
-    #[error(
-        "the field returned {value} at ({x}, {y}, {z}); fields must be finite everywhere \
-         in the volume (check divisions by zero, sqrt of negatives, an unbounded noise \
-         amplitude, or noise evaluated too far from its origin)",
-        x = position.x, y = position.y, z = position.z
-    )]
+    #[error("{}", non_finite(position, *value, cause.as_deref()))]
     NonFiniteSample {
         /// Where the field was evaluated (world units).
         position: Vec3,
         /// What it returned.
         value: f32,
+        /// Why, when the field can tell ([`crate::Field::explain_non_finite`]):
+        /// e.g. the scene node whose noise was evaluated out of its reach.
+        cause: Option<String>,
     },
     /// The grid needs more memory than the configured budget allows.
     #[error(
-        "a grid of {cells} cells needs about {needed} bytes, over the memory budget of \
-         {budget} bytes; lower the resolution, mesh in chunks, or raise \
-         Settings::memory_budget"
+        "a grid of {cells} cells needs about {needed_size} ({needed} bytes), over the \
+         memory budget of {budget_size}; lower the resolution, mesh in chunks, or raise \
+         the budget (`--memory-budget` on the command line, `Settings::memory_budget` \
+         in code)",
+        needed_size = Size(*needed), budget_size = Size(*budget)
     )]
     MemoryBudget {
         /// Cells in the grid.
@@ -40,8 +41,10 @@ pub enum Error {
     /// Something other than one grid (a volume after inflation, a mesh file, a
     /// whole world of chunks) needs more memory than the budget allows.
     #[error(
-        "{what} needs about {needed} bytes, over the memory budget of {budget} bytes; \
-         use a smaller input or raise the memory budget"
+        "{what} needs about {needed_size} ({needed} bytes), over the memory budget of \
+         {budget_size}; use a smaller input or raise the budget (`--memory-budget` on \
+         the command line, `Settings::memory_budget` in code)",
+        needed_size = Size(*needed), budget_size = Size(*budget)
     )]
     TooLarge {
         /// What would be too large, e.g. `a volume of 2048x2048x2048 voxels`.
@@ -115,3 +118,20 @@ pub enum SceneError {
 
 /// Result alias for the core.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// The message of [`Error::NonFiniteSample`]: the field's own explanation when it
+/// has one, else the usual causes.
+fn non_finite(position: &Vec3, value: f32, cause: Option<&str>) -> String {
+    let at = format!(
+        "the field returned {value} at ({}, {}, {})",
+        position.x, position.y, position.z
+    );
+    match cause {
+        Some(cause) => format!("{at}: {cause}"),
+        None => format!(
+            "{at}; fields must be finite everywhere in the volume (check divisions by \
+             zero, sqrt of negatives, an unbounded noise amplitude, or noise evaluated \
+             too far from its origin)"
+        ),
+    }
+}

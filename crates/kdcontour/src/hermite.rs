@@ -80,11 +80,11 @@ pub fn surface_bytes(cells: glam::U64Vec3) -> u64 {
 pub fn check_grid(grid: &Grid, settings: &Settings) -> Result<()> {
     grid.validate()?;
     let needed = estimate_bytes(grid);
-    if needed > settings.memory_budget {
+    if needed > settings.memory_budget.get() {
         return Err(Error::MemoryBudget {
             cells: grid.cell_count(),
             needed,
-            budget: settings.memory_budget,
+            budget: settings.memory_budget.get(),
         });
     }
     Ok(())
@@ -160,9 +160,11 @@ pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Vec
         let z = i / slab;
         let y = (i % slab) / c.x as usize;
         let x = i % c.x as usize;
+        let position = grid.corner_pos(UVec3::new(x as u32, y as u32, z as u32));
         return Err(Error::NonFiniteSample {
-            position: grid.corner_pos(UVec3::new(x as u32, y as u32, z as u32)),
+            position,
             value: values[i],
+            cause: field.explain_non_finite(position),
         });
     }
     Ok(values)
@@ -496,6 +498,16 @@ impl Hermite {
                                 .value(grid.to_world(UVec3::from(h).as_vec3()))
                                 .copysign(v1);
                         }
+                        for (v, c) in [(v0, p0), (v1, UVec3::from(h).as_vec3())] {
+                            if !v.is_finite() {
+                                let position = grid.to_world(c);
+                                return Err(Error::NonFiniteSample {
+                                    position,
+                                    value: v,
+                                    cause: field.explain_non_finite(position),
+                                });
+                            }
+                        }
                         let dir = Vec3::AXES[a];
                         let t = find_root(field, grid, p0, dir, v0, v1, iterations)?;
                         let point = p0 + dir * t;
@@ -629,6 +641,7 @@ fn find_root(
             return Err(Error::NonFiniteSample {
                 position: wp,
                 value: ft,
+                cause: field.explain_non_finite(wp),
             });
         }
         if ft.abs() <= tol || (t1 - t0) < 1e-5 {

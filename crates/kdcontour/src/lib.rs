@@ -24,8 +24,8 @@
 //! ## Pipeline and modules
 //! Data flows one way: [`field`] -> [`hermite`] (built on [`qef`] and [`cell`]) ->
 //! [`kdtree`] -> [`world`], with [`io`], [`validate`](mod@validate) and
-//! [`mesh`](mod@mesh) beside. [`settings`] and [`error`] sit below them all;
-//! [`KdTree::build`] runs the whole pipeline once.
+//! [`mesh`](mod@mesh) beside. [`settings`] (with the memory [`budget`]) and
+//! [`error`] sit below them all; [`KdTree::build`] runs the whole pipeline once.
 //!
 //! ## Inputs and baselines
 //! - Fields: [`field::sdf`] primitives, [`field::csg`] trees and JSON scene files,
@@ -84,6 +84,7 @@
 #![warn(missing_docs)]
 
 pub mod boundary;
+pub mod budget;
 pub mod cell;
 pub mod comp;
 pub mod dmc;
@@ -103,6 +104,7 @@ pub mod settings;
 pub mod validate;
 pub mod world;
 
+pub use budget::Budget;
 pub use error::{Error, Result, SceneError};
 pub use field::csg::{Csg, CsgNode};
 pub use field::Field;

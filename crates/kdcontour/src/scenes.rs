@@ -147,7 +147,7 @@ pub fn scene(name: &str) -> Result<Scene, Error> {
         "csg_mix" => "box ∩ sphere minus cylinders, plus a smooth torus/capsule/rounded box",
         _ => {
             return Err(SceneError::UnknownScene {
-                name: name.into(),
+                name: crate::io::cut(name),
                 known: SCENES.join(", "),
             }
             .into())

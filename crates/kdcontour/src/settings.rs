@@ -1,8 +1,9 @@
 //! Build settings: the one struct every stage of the pipeline reads (threads, memory
 //! budget, crossing refinement, partition).
 //!
-//! This module sits below everything else in the core (it depends on [`crate::error`]
-//! only), so the Hermite stage can take `Settings` without depending on the tree.
+//! This module sits below everything else in the core (it depends on
+//! [`crate::error`] and [`crate::budget`] only), so the Hermite stage can take
+//! `Settings` without depending on the tree.
 //! [`Partition`] lives here rather than in [`crate::kdtree`] for the same reason: it
 //! is a plain choice the settings carry, not tree code, and keeping it here stops
 //! `settings -> kdtree -> hermite -> settings` from forming a cycle. It is
@@ -10,32 +11,16 @@
 
 use crate::error::{Error, Result};
 
-/// The default memory budget (4 GiB): [`Settings::memory_budget`], and the budget
-/// the file loaders of [`crate::io`] check a file's decoded size against before
-/// they allocate (voxels after inflation, mesh files; see [`check_budget`]).
-pub const DEFAULT_MEMORY_BUDGET: u64 = 4 << 30;
-
-/// Refuses `needed` bytes for `what` when they exceed `budget`, before anything is
-/// allocated.
-pub fn check_budget(what: impl Into<String>, needed: u64, budget: u64) -> Result<()> {
-    if needed > budget {
-        return Err(Error::TooLarge {
-            what: what.into(),
-            needed,
-            budget,
-        });
-    }
-    Ok(())
-}
+pub use crate::budget::{check_budget, Budget, DEFAULT_MEMORY_BUDGET};
 
 /// Build settings. Construct with `Settings { threads: 1, ..Default::default() }`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Settings {
     /// Worker threads; 0 uses the ambient rayon pool.
     pub threads: usize,
-    /// Refuse grids, and bounded worlds, whose build would need more bytes than
-    /// this (default [`DEFAULT_MEMORY_BUDGET`], 4 GiB).
-    pub memory_budget: u64,
+    /// Refuse grids, and worlds (all their chunks together), whose build would
+    /// need more bytes than this (default [`Budget::DEFAULT`], 4 GiB).
+    pub memory_budget: Budget,
     /// Most Illinois false-position steps that refine each edge crossing on the field
     /// (0 = linear interpolation only, right for sampled volumes); each edge stops
     /// early once |f| < 1e-5 cells. Linear interpolation is exact where the field is
@@ -54,7 +39,7 @@ impl Default for Settings {
     fn default() -> Self {
         Settings {
             threads: 0,
-            memory_budget: DEFAULT_MEMORY_BUDGET,
+            memory_budget: Budget::DEFAULT,
             root_iterations: 12,
             partition: Partition::KdTree,
             boundary: Boundary::Open,

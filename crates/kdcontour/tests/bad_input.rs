@@ -24,7 +24,13 @@ fn nan_field_is_an_error_naming_the_point() {
     .err()
     .expect("NaN must be an error");
     match &err {
-        Error::NonFiniteSample { value, position } => {
+        Error::NonFiniteSample {
+            value,
+            position,
+            cause,
+        } => {
+            // A closure cannot say why; the message lists the usual causes.
+            assert_eq!(cause, &None);
             assert!(value.is_nan());
             assert!(position.x > 0.3);
         }
@@ -103,7 +109,7 @@ fn zero_resolution_and_degenerate_grids() {
 #[test]
 fn grid_over_the_memory_budget_is_refused_before_allocating() {
     let s = Settings {
-        memory_budget: 64 << 20,
+        memory_budget: kdcontour::Budget::bytes(64 << 20),
         ..Default::default()
     };
     // 4096^3 cells would need hundreds of GB; the check must come first.
@@ -256,7 +262,11 @@ fn semantically_wrong_scene_files_name_the_node() {
         (r#"{"type":"plane","normal":[0,0,0]}"#, "root.normal"),
         (
             r#"{"type":"heightfield","amplitude":1,"frequency":1,"octaves":40}"#,
-            "octaves",
+            "root.octaves",
+        ),
+        (
+            r#"{"type":"density","amplitude":-1,"frequency":1}"#,
+            "root.amplitude",
         ),
         (
             r#"{"type":"rounded_box","half_extents":[0.1,0.5,0.5],"radius":0.2}"#,
@@ -270,5 +280,38 @@ fn semantically_wrong_scene_files_name_the_node() {
             "{text}: {err:?}"
         );
         assert!(err.to_string().contains(path), "{text}: {err}");
+    }
+}
+
+#[test]
+fn every_scene_error_names_its_place_and_cuts_long_values() {
+    let long = "x".repeat(1 << 20);
+    let cases = [
+        // Syntax: a line and a column (never line 0).
+        "{\"type\": \"sphere\",\n \"radius\": }".to_string(),
+        format!("{{\"type\": \"sphere\", \"radius\": 1}} {long}"),
+        // Schema: the node path, long names and strings cut.
+        format!(r#"{{"type":"{long}"}}"#),
+        format!(r#"{{"type":"sphere","radius":1,"{long}":2}}"#),
+        format!(r#"{{"type":"sphere","radius":"{long}"}}"#),
+        format!(r#"{{"type":"union","children":[{{"type":"sphere","radius":1}},"{long}"]}}"#),
+        format!(r#"{{"type":"transform","child":{{"type":7,"radius":1}},"translate":"{long}"}}"#),
+        // Values: the field's path.
+        r#"{"type":"heightfield","amplitude":1,"frequency":1e19}"#.to_string(),
+        r#"{"type":"density","amplitude":1,"frequency":1,"caves":{"frequency":0,"radius":1}}"#
+            .to_string(),
+    ];
+    for text in &cases {
+        let msg = CsgNode::from_json(text).unwrap_err().to_string();
+        let head: String = text.chars().take(80).collect();
+        assert!(msg.len() < 600, "{head}: {} bytes", msg.len());
+        assert!(!msg.contains('\n'), "{head}: {msg}");
+        let placed = msg.starts_with("scene node `root")
+            || (msg.starts_with("scene file line ") && !msg.starts_with("scene file line 0"));
+        assert!(placed, "{head}: {msg}");
+        if text.len() > 1 << 20 {
+            let said = msg.contains("a string of 1048576 bytes") || msg.contains("trailing");
+            assert!(said, "{head}: {msg}");
+        }
     }
 }

@@ -9,7 +9,7 @@ use kdcontour::field::volume::Inside;
 use kdcontour::io::input::Input;
 use kdcontour::io::mesh::{mesh_from_bytes, MeshFormat};
 use kdcontour::io::volume::{self, load_raw, raw_from_bytes, read_nifti, VoxelType};
-use kdcontour::{ChunkWorld, CsgNode, Error, Grid, IndexedMesh, KdTree, Settings};
+use kdcontour::{Budget, ChunkWorld, CsgNode, Error, Grid, IndexedMesh, KdTree, Settings};
 use std::io::Read;
 use std::path::PathBuf;
 
@@ -96,12 +96,13 @@ fn nifti_reads_only_what_its_header_needs() {
         }
     }
     let mut r = Counting(&bomb, 0);
-    let (dims, _, data) = read_nifti(std::io::BufReader::new(&mut r), 1 << 20).unwrap();
+    let (dims, _, data) =
+        read_nifti(std::io::BufReader::new(&mut r), Budget::bytes(1 << 20)).unwrap();
     assert_eq!((dims, data.len()), (UVec3::splat(4), 64));
     assert!(r.1 < bomb.len() / 4, "read {} of {} bytes", r.1, bomb.len());
     // A header whose volume exceeds the budget is refused before inflating it.
     let big = nifti_header([2048, 2048, 2048], [1.0; 3]);
-    let e = read_nifti(&big[..], 1 << 30).unwrap_err();
+    let e = read_nifti(&big[..], Budget::bytes(1 << 30)).unwrap_err();
     assert!(
         e.contains("2048x2048x2048 voxels") && e.contains("memory budget"),
         "{e}"
@@ -190,22 +191,56 @@ fn huge_noise_parameters_are_errors_not_panics() {
         .unwrap_err()
         .to_string();
     assert!(
-        e.contains("root") && e.contains("frequency must be > 0 and at most 1000000"),
+        e.contains("`root.frequency`: must be > 0 and at most 1000000"),
         "{e}"
     );
-    // A finite translate far beyond the noise's reach: a non-finite sample error
-    // naming the point, instead of a panic inside the noise crate.
-    for child in [
-        r#"{"type":"heightfield","amplitude":1,"frequency":1}"#,
+    // Cave noise faster than any other frequency: refused at its node path.
+    let e = CsgNode::from_json(
         r#"{"type":"density","amplitude":1,"frequency":1,"caves":{"frequency":1e30,"radius":0.1}}"#,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("`root.caves.frequency`") && e.contains("at most 1000000"),
+        "{e}"
+    );
+    // A finite translate or a tiny scale that puts the noise beyond its reach: a
+    // non-finite sample error naming the point, the noise node's path and what
+    // would be valid, instead of a panic inside the noise crate.
+    for (child, path) in [
+        (
+            r#"{"type":"transform","translate":[1e20,0,0],"child":{"type":"heightfield","amplitude":1,"frequency":1}}"#,
+            "root.children[1].child` (heightfield)",
+        ),
+        (
+            r#"{"type":"transform","translate":[0,0,-1e20],"child":{"type":"density","amplitude":1,"frequency":1,"caves":{"frequency":1,"radius":0.1}}}"#,
+            "root.children[1].child` (density)",
+        ),
+        (
+            r#"{"type":"transform","scale":1e-30,"child":{"type":"heightfield","amplitude":1,"frequency":1}}"#,
+            "root.children[1].child` (heightfield)",
+        ),
     ] {
-        let text = format!(r#"{{"type":"transform","translate":[1e20,0,0],"child":{child}}}"#);
+        let text =
+            format!(r#"{{"type":"union","children":[{{"type":"sphere","radius":0.5}},{child}]}}"#);
         let f = CsgNode::from_json(&text).unwrap().compile().unwrap();
         let e = KdTree::build(&f, &Grid::cube(1.0, 8), &Settings::default())
             .err()
             .expect("out of the noise's reach");
-        assert!(matches!(e, Error::NonFiniteSample { .. }), "{e:?}");
-        assert!(e.to_string().contains("noise evaluated too far"), "{e}");
+        assert!(
+            matches!(&e, Error::NonFiniteSample { cause: Some(_), .. }),
+            "{e:?}"
+        );
+        let msg = e.to_string();
+        for needle in [
+            "the field returned NaN at (",
+            path,
+            "noise evaluated too far from its origin",
+            "past 1e15",
+            "keep the node within",
+        ] {
+            assert!(msg.contains(needle), "missing `{needle}` in {msg}");
+        }
     }
 }
 

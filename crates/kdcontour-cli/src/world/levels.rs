@@ -3,7 +3,7 @@
 //! retained bytes, build time and triangles per level.
 
 use super::{cell_size, random_thresholds, weld, Thresholds, World};
-use crate::args::threads;
+use crate::args::settings;
 use crate::output::print_checks;
 use glam::{IVec3, UVec3, Vec3};
 use kdcontour::io::input::parse_vec3;
@@ -88,6 +88,15 @@ pub fn run(args: &World, spec: &str, thresholds: Thresholds) -> Result<(), Strin
     if loaded.bounds.is_some() {
         return Err("world meshes [-1, 1]^3: use --scene or --scene-file".into());
     }
+    // A layout may split down to level 0 everywhere: check the most chunks it can
+    // have before building any.
+    let settings = settings(args.threads, args.memory.budget);
+    LevelWorld::check_budget(
+        chunks.as_u64vec3().element_product(),
+        args.chunk_res,
+        &settings,
+    )
+    .map_err(|e| e.to_string())?;
     let (lo, hi) = (IVec3::ZERO, chunks.as_ivec3());
     let cell = cell_size(chunks, args.chunk_res);
     let mut world = LevelWorld::new(
@@ -96,7 +105,7 @@ pub fn run(args: &World, spec: &str, thresholds: Thresholds) -> Result<(), Strin
         args.chunk_res,
         Layout::uniform(lo, hi, top).map_err(|e| e.to_string())?,
         0.01,
-        threads(args.threads),
+        settings,
     )
     .map_err(|e| e.to_string())?;
     let layout = match levels {

@@ -105,6 +105,23 @@ impl MeshSdf {
         self.inside_out
     }
 
+    /// Bytes a field over a mesh of `vertices` vertices and `triangles` triangles
+    /// holds (its copy of the mesh and, at most, two tree nodes per triangle), for
+    /// checking a mesh against a memory budget before it is built.
+    pub fn estimate_bytes(vertices: u64, triangles: u64) -> u64 {
+        let node = std::mem::size_of::<Node>() as u64;
+        vertices
+            .saturating_mul(12)
+            .saturating_add(triangles.saturating_mul(12 + 2 * node))
+    }
+
+    /// Bytes this field holds (see [`MeshSdf::estimate_bytes`]).
+    pub fn held_bytes(&self) -> u64 {
+        let node = std::mem::size_of::<Node>() as u64;
+        (self.v.capacity() * 12 + self.tris.capacity() * 12) as u64
+            + self.nodes.capacity() as u64 * node
+    }
+
     /// The mesh's bounding box.
     pub fn bounds(&self) -> (Vec3, Vec3) {
         self.bounds

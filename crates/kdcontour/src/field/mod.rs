@@ -85,6 +85,14 @@ pub trait Field: Send + Sync {
     fn sample_grid(&self, grid: &Grid, z_range: std::ops::Range<u32>, out: &mut [f32]) {
         sample_each(grid, z_range, out, |p| self.value(p));
     }
+
+    /// Why the value at `p` is not finite, when the field can tell (a scene's
+    /// noise node evaluated beyond its reach names its node path and what would
+    /// be valid); the error of a non-finite sample carries it. `None` by default.
+    fn explain_non_finite(&self, p: Vec3) -> Option<String> {
+        let _ = p;
+        None
+    }
 }
 
 /// Fills `out` with `value` at every corner of `grid` with z in `z_range` (x
@@ -140,6 +148,9 @@ macro_rules! forward_field {
             fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
                 (**self).bound(lo, hi)
             }
+            fn explain_non_finite(&self, p: Vec3) -> Option<String> {
+                (**self).explain_non_finite(p)
+            }
         }
     )*};
 }
@@ -174,6 +185,9 @@ impl Field for IsoShift {
     fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
         let (a, b) = self.inner.bound(lo, hi)?;
         Some((a - self.iso, b - self.iso))
+    }
+    fn explain_non_finite(&self, p: Vec3) -> Option<String> {
+        self.inner.explain_non_finite(p)
     }
 }
 

@@ -158,26 +158,53 @@ fn guarded<const N: usize>(noise: &impl NoiseFn<f64, N>, p: [f64; N], reach: f64
     }
 }
 
+/// Why noise scaled by `reach` gives no value at `q` (its own coordinates), or
+/// `None` when every coordinate is within [`NOISE_REACH`]: how far it reached and
+/// what would be valid.
+fn reach_fault(q: &[f64], reach: f64) -> Option<String> {
+    let far = q.iter().fold(0f64, |m, c| m.max(c.abs()));
+    if far * reach <= NOISE_REACH {
+        return None;
+    }
+    Some(format!(
+        "noise evaluated too far from its origin: {far:.3e} units out in the node's own \
+         coordinates (after the transforms above it), times {reach} (frequency times \
+         2 per extra octave) is past {NOISE_REACH:e}, the farthest the noise can be \
+         evaluated; keep the node within {:.3e} units of where it is evaluated (a \
+         smaller translate, a larger scale) or lower its frequency",
+        NOISE_REACH / reach
+    ))
+}
+
 /// How much the last of `octaves` octaves scales the first octave's coordinates
 /// (lacunarity 2).
 fn octave_reach(octaves: u32) -> f64 {
     2f64.powi(octaves.saturating_sub(1).min(64) as i32)
 }
 
-/// Checks the shared noise parameters.
-pub(crate) fn check_noise(amplitude: f32, frequency: f32, octaves: u32) -> Result<(), String> {
+/// Checks the shared noise parameters; the error names the bad field and says
+/// what is valid.
+pub(crate) fn check_noise(
+    amplitude: f32,
+    frequency: f32,
+    octaves: u32,
+) -> Result<(), (&'static str, String)> {
     if !(amplitude.is_finite() && amplitude >= 0.0) {
-        return Err(format!(
-            "amplitude must be finite and >= 0, got {amplitude}"
+        return Err((
+            "amplitude",
+            format!("must be finite and >= 0, got {amplitude}"),
         ));
     }
     if !(frequency.is_finite() && frequency > 0.0 && frequency <= MAX_FREQUENCY) {
-        return Err(format!(
-            "frequency must be > 0 and at most {MAX_FREQUENCY} (features per world unit), got {frequency}"
+        return Err((
+            "frequency",
+            format!(
+                "must be > 0 and at most {MAX_FREQUENCY} (features per world unit), got {frequency}"
+            ),
         ));
     }
     if !(1..=16).contains(&octaves) {
-        return Err(format!("octaves must be 1 to 16, got {octaves}"));
+        return Err(("octaves", format!("must be 1 to 16, got {octaves}")));
     }
     Ok(())
 }
@@ -197,9 +224,20 @@ impl Heightfield {
 
     /// The terrain height at `(x, z)`.
     pub fn height(&self, x: f32, z: f32) -> f32 {
-        let reach = self.params.frequency as f64 * octave_reach(self.params.octaves);
         self.params.base
-            + self.params.amplitude * guarded(&self.noise, [x as f64, z as f64], reach) as f32
+            + self.params.amplitude
+                * guarded(&self.noise, [x as f64, z as f64], self.reach()) as f32
+    }
+
+    /// How far a unit step moves the finest octave's noise coordinates.
+    fn reach(&self) -> f64 {
+        self.params.frequency as f64 * octave_reach(self.params.octaves)
+    }
+
+    /// Why the value at `p` is not finite: the noise is out of its reach there
+    /// (see [`NOISE_REACH`]); `None` where it is finite.
+    pub fn reach_fault(&self, p: Vec3) -> Option<String> {
+        reach_fault(&[p.x as f64, p.z as f64], self.reach())
     }
 
     /// The terrain height at `(x, z)` in f64 (for differences far from the origin).
@@ -237,6 +275,11 @@ impl Field for Heightfield {
     fn gradient(&self, p: Vec3) -> Vec3 {
         let h = 1e-3 / self.params.frequency as f64;
         let (x, z) = (p.x as f64, p.z as f64);
+        // Out of the noise's reach the value is NaN, and so is the gradient
+        // (the unguarded f64 noise would panic there).
+        if reach_fault(&[x.abs() + h, z.abs() + h], self.reach()).is_some() {
+            return Vec3::NAN;
+        }
         let dx = (self.height64(x + h, z) - self.height64(x - h, z)) / (2.0 * h);
         let dz = (self.height64(x, z + h) - self.height64(x, z - h)) / (2.0 * h);
         Vec3::new(-dx as f32, 1.0, -dz as f32)
@@ -313,11 +356,24 @@ impl Density {
     /// [`NOISE_REACH`] (beyond it the value is NaN, reported as a non-finite
     /// sample, instead of a panic inside the noise).
     fn in_reach(&self, q: [f64; 3]) -> bool {
-        let mut reach = self.params.frequency as f64 * octave_reach(self.params.octaves);
-        if let Some(c) = &self.params.caves {
-            reach = reach.max(c.frequency as f64);
-        }
+        let reach = self.reach();
         q.iter().all(|c| (c * reach).abs() <= NOISE_REACH)
+    }
+
+    /// How far a unit step moves the finest noise's coordinates (the surface's
+    /// last octave or the caves).
+    fn reach(&self) -> f64 {
+        let reach = self.params.frequency as f64 * octave_reach(self.params.octaves);
+        match &self.params.caves {
+            Some(c) => reach.max(c.frequency as f64),
+            None => reach,
+        }
+    }
+
+    /// Why the value at `p` is not finite: a noise is out of its reach there
+    /// (see [`NOISE_REACH`]); `None` where it is finite.
+    pub fn reach_fault(&self, p: Vec3) -> Option<String> {
+        reach_fault(&p.as_dvec3().to_array(), self.reach())
     }
 
     /// The two cave noises at `q`, if there are caves.

@@ -2,7 +2,8 @@
 //! volume or a triangle mesh file, and the grid it is meshed on; and the text form
 //! of an input's vectors (raw-volume dims and spacing, `X,Y,Z`).
 
-use super::{bad, cut, mesh::load_mesh, read_limited};
+use super::{bad, cut, mesh::load_mesh_within, read_limited};
+use crate::budget::Budget;
 use crate::error::{Error, Result};
 use crate::field::csg::CsgNode;
 use crate::field::mesh_sdf::MeshSdf;
@@ -25,6 +26,10 @@ pub struct Input {
     /// Whether the field exists only inside `bounds` (a volume), so every axis of
     /// the box needs cells of its own.
     pub sampled: bool,
+    /// Bytes the field holds (a volume's voxels, a mesh's triangles and tree; 0
+    /// for scenes): taken off the budget of whatever meshes it
+    /// ([`Budget::less`]), so one budget covers the whole command.
+    pub held_bytes: u64,
     /// What the loader fixed and the user should hear about (an inside-out mesh
     /// turned outward).
     pub warnings: Vec<String>,
@@ -42,6 +47,7 @@ impl Input {
             field: s.field,
             bounds: None,
             sampled: false,
+            held_bytes: 0,
             warnings: Vec::new(),
         })
     }
@@ -57,6 +63,7 @@ impl Input {
             field: Box::new(field),
             bounds: None,
             sampled: false,
+            held_bytes: 0,
             warnings: Vec::new(),
         })
     }
@@ -66,6 +73,7 @@ impl Input {
         let bounds = volume.bounds();
         Input {
             name: path.display().to_string(),
+            held_bytes: volume.data.capacity() as u64 * 4,
             field: Box::new(volume),
             bounds: Some(bounds),
             sampled: true,
@@ -74,10 +82,17 @@ impl Input {
     }
 
     /// An `.obj` or `.ply` triangle mesh as a signed distance field, bounded by its
-    /// vertices. An inside-out mesh is turned outward, with a warning
-    /// ([`MeshSdf::new`]).
+    /// vertices, within the default budget (see [`Input::mesh_within`]). An
+    /// inside-out mesh is turned outward, with a warning ([`MeshSdf::new`]).
     pub fn mesh(path: &Path) -> Result<Input> {
-        let sdf = MeshSdf::new(&load_mesh(path)?);
+        Input::mesh_within(path, Budget::DEFAULT)
+    }
+
+    /// An `.obj` or `.ply` triangle mesh as a signed distance field, bounded by its
+    /// vertices; the file and its element counts are checked against `budget`
+    /// before they are read ([`load_mesh_within`]).
+    pub fn mesh_within(path: &Path, budget: Budget) -> Result<Input> {
+        let sdf = MeshSdf::new(&load_mesh_within(path, budget)?);
         let bounds = sdf.bounds();
         let mut warnings = Vec::new();
         if sdf.inside_out() {
@@ -88,6 +103,7 @@ impl Input {
         }
         Ok(Input {
             name: path.display().to_string(),
+            held_bytes: sdf.held_bytes(),
             field: Box::new(sdf),
             bounds: Some(bounds),
             sampled: false,

@@ -1,18 +1,41 @@
 //! OBJ and PLY triangle meshes (input side; see [`mod@crate::mesh`] for writing).
 
 use super::{bad, cut, read_limited};
+use crate::budget::{Budget, DEFAULT_MEMORY_BUDGET};
 use crate::error::Result;
-use crate::settings::DEFAULT_MEMORY_BUDGET;
+use crate::field::mesh_sdf::MeshSdf;
 use glam::Vec3;
 use std::path::Path;
 
 // The mesh type lives with the field that reads it (field must not depend on io).
 pub use crate::field::mesh_sdf::TriMesh;
 
-/// The largest mesh file read: an eighth of [`DEFAULT_MEMORY_BUDGET`] (512 MiB), as
-/// the parsed mesh and the distance field's tree over it take several times the
-/// file's bytes.
+/// The largest mesh file read within the default budget: an eighth of
+/// [`DEFAULT_MEMORY_BUDGET`] (512 MiB), as the parsed mesh and the distance
+/// field's tree over it take several times the file's bytes (see
+/// [`max_mesh_file`]).
 pub const MAX_MESH_FILE: u64 = DEFAULT_MEMORY_BUDGET / 8;
+
+/// The largest mesh file read within `budget`: an eighth of it.
+pub fn max_mesh_file(budget: Budget) -> u64 {
+    budget.get() / 8
+}
+
+/// Bytes a mesh of `vertices` vertices and at least `faces` triangles takes once
+/// parsed and made a distance field ([`MeshSdf::estimate_bytes`]), checked against
+/// `budget` before any element is read.
+fn check_elements(vertices: u64, faces: u64, budget: Budget) -> std::result::Result<(), String> {
+    let needed = vertices
+        .saturating_mul(12)
+        .saturating_add(faces.saturating_mul(12))
+        .saturating_add(MeshSdf::estimate_bytes(vertices, faces));
+    budget
+        .check(
+            format!("a mesh of {vertices} vertices and {faces} faces"),
+            needed,
+        )
+        .map_err(|e| e.to_string())
+}
 
 /// A triangle mesh file format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -40,20 +63,51 @@ impl MeshFormat {
     }
 }
 
-/// Loads an `.obj` or `.ply` file (chosen by extension, any case); files over
-/// [`MAX_MESH_FILE`] are refused without reading them whole.
+/// Loads an `.obj` or `.ply` file (chosen by extension, any case) within the
+/// default budget ([`Budget::DEFAULT`]; see [`load_mesh_within`]).
 pub fn load_mesh(path: &Path) -> Result<TriMesh> {
+    load_mesh_within(path, Budget::DEFAULT)
+}
+
+/// Loads an `.obj` or `.ply` file (chosen by extension, any case); files over
+/// [`max_mesh_file`]`(budget)` are refused without reading them whole, and
+/// element counts whose mesh would not fit `budget` before any element is read.
+pub fn load_mesh_within(path: &Path, budget: Budget) -> Result<TriMesh> {
     let format = MeshFormat::of(path).map_err(|m| bad(path, m))?;
-    let bytes = read_limited(path, MAX_MESH_FILE, "a mesh file may have")?;
-    mesh_from_bytes(&bytes, format).map_err(|m| bad(path, m))
+    let bytes = read_limited(
+        path,
+        max_mesh_file(budget),
+        "a mesh file may have (an eighth of the memory budget)",
+    )?;
+    mesh_from_bytes_within(&bytes, format, budget).map_err(|m| bad(path, m))
 }
 
 /// Parses a mesh file's bytes and checks the mesh: at least one face, every vertex
-/// finite.
+/// finite (within the default budget; see [`mesh_from_bytes_within`]).
 pub fn mesh_from_bytes(bytes: &[u8], format: MeshFormat) -> std::result::Result<TriMesh, String> {
+    mesh_from_bytes_within(bytes, format, Budget::DEFAULT)
+}
+
+/// Parses a mesh file's bytes and checks the mesh: at least one face, every vertex
+/// finite. Its element counts are checked against `budget` before any element is
+/// read (the header's for PLY, the `v` and `f` lines for OBJ).
+pub fn mesh_from_bytes_within(
+    bytes: &[u8],
+    format: MeshFormat,
+    budget: Budget,
+) -> std::result::Result<TriMesh, String> {
     let mesh = match format {
-        MeshFormat::Obj => parse_obj(&String::from_utf8_lossy(bytes)),
-        MeshFormat::Ply => parse_ply(bytes),
+        MeshFormat::Obj => {
+            let text = String::from_utf8_lossy(bytes);
+            let count = |tag: &str| {
+                text.lines()
+                    .filter(|l| l.split_whitespace().next() == Some(tag))
+                    .count() as u64
+            };
+            check_elements(count("v"), count("f"), budget)?;
+            parse_obj(&text)
+        }
+        MeshFormat::Ply => parse_ply_within(bytes, budget),
     }?;
     if mesh.triangles.is_empty() {
         return Err("the mesh has no faces".into());
@@ -177,8 +231,15 @@ enum Prop {
 }
 
 /// Parses PLY (ascii, binary little or big endian): the `vertex` element's x, y, z
-/// and the `face` element's index list; other elements and properties are skipped.
+/// and the `face` element's index list; other elements and properties are skipped
+/// (within the default budget).
 pub fn parse_ply(bytes: &[u8]) -> std::result::Result<TriMesh, String> {
+    parse_ply_within(bytes, Budget::DEFAULT)
+}
+
+/// [`parse_ply`], with the header's vertex and face counts checked against
+/// `budget` before any row is read.
+fn parse_ply_within(bytes: &[u8], budget: Budget) -> std::result::Result<TriMesh, String> {
     let end = bytes
         .windows(10)
         .position(|w| w == b"end_header")
@@ -239,6 +300,14 @@ pub fn parse_ply(bytes: &[u8]) -> std::result::Result<TriMesh, String> {
     // Rows of an element without properties hold nothing: skip them, whatever
     // their count says.
     elements.retain(|(_, _, props)| !props.is_empty());
+    let count = |want: &str| {
+        elements
+            .iter()
+            .filter(|(name, _, _)| name == want)
+            .fold(0u64, |sum, (_, n, _)| sum.saturating_add(*n as u64))
+    };
+    // After the file is known to hold the rows, whose counts must fit the budget.
+    let fits = || check_elements(count("vertex"), count("face"), budget);
     let body = &bytes[body_start..];
     let mut m = TriMesh::default();
     let mut vertex_count = 0usize;
@@ -257,6 +326,7 @@ pub fn parse_ply(bytes: &[u8]) -> std::result::Result<TriMesh, String> {
                     claimed.map_or("more than 2^64".to_string(), |c| c.to_string())
                 ));
             }
+            fits()?;
             for (name, n, props) in &elements {
                 for r in 0..*n {
                     let row = rows
@@ -276,22 +346,29 @@ pub fn parse_ply(bytes: &[u8]) -> std::result::Result<TriMesh, String> {
         }
         "binary_little_endian" | "binary_big_endian" => {
             let big = format == "binary_big_endian";
-            let mut at = 0usize;
+            // The fewest bytes each element's rows take (lists empty): refuse
+            // counts the file cannot hold before reading a row.
+            let mut least_before = 0usize;
             for (name, n, props) in &elements {
-                // The fewest bytes a row takes (lists empty): refuse a count the
-                // rest of the file cannot hold before reading a row.
                 let least: usize = props
                     .iter()
                     .map(|p| match p {
                         Prop::One(_, s) | Prop::List(_, s, _) => s.size(),
                     })
                     .sum();
-                let left = body.len() - at;
-                if n.checked_mul(least).is_none_or(|b| b > left) {
-                    return Err(format!(
-                        "element {name} claims {n} rows of at least {least} bytes, but only {left} bytes follow; fix the element count"
-                    ));
+                let left = body.len().saturating_sub(least_before);
+                match n.checked_mul(least).filter(|b| *b <= left) {
+                    Some(b) => least_before += b,
+                    None => {
+                        return Err(format!(
+                            "element {name} claims {n} rows of at least {least} bytes, but only {left} bytes follow; fix the element count"
+                        ))
+                    }
                 }
+            }
+            fits()?;
+            let mut at = 0usize;
+            for (name, n, props) in &elements {
                 for r in 0..*n {
                     let mut num_at = |s: Scalar| -> std::result::Result<f64, String> {
                         let b = body.get(at..at + s.size()).ok_or(format!(

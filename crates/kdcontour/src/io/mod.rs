@@ -60,21 +60,23 @@ pub fn cut(s: &str) -> String {
     format!("{head}... ({} bytes in all)", s.len())
 }
 
-/// `message` with every backtick-quoted value longer than [`MAX_QUOTED`] cut (see
-/// [`cut`]): serde echoes unknown names whole.
+/// `message` with every backtick- or double-quoted value longer than
+/// [`MAX_QUOTED`] cut (see [`cut`]): serde echoes unknown names and mistyped
+/// strings whole.
 pub fn cut_quoted(message: &str) -> String {
-    message
-        .split('`')
-        .enumerate()
-        .map(|(i, part)| {
-            if i % 2 == 1 {
-                cut(part)
-            } else {
-                part.to_string()
-            }
-        })
-        .collect::<Vec<_>>()
-        .join("`")
+    ['`', '"'].iter().fold(message.to_string(), |m, &q| {
+        m.split(q)
+            .enumerate()
+            .map(|(i, part)| {
+                if i % 2 == 1 {
+                    cut(part)
+                } else {
+                    part.to_string()
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(&q.to_string())
+    })
 }
 
 /// Writes `path` through `write` into a temporary file in the same directory,

@@ -3,9 +3,9 @@
 
 use super::volume::{code_size, decode, finish, voxel_sizes};
 use super::{bad, io_error, write_atomic};
+use crate::budget::Budget;
 use crate::error::{Error, Result};
 use crate::field::volume::{Inside, SampledVolume};
-use crate::settings::DEFAULT_MEMORY_BUDGET;
 use glam::{UVec3, Vec3};
 use std::io::{BufRead, Read};
 use std::path::Path;
@@ -20,22 +20,33 @@ pub fn is_nifti(path: &Path) -> bool {
     name.ends_with(".nii") || name.ends_with(".nii.gz")
 }
 
+/// Loads a NIfTI-1 file (`.nii`, or gzip-compressed `.nii.gz`) within the default
+/// budget ([`Budget::DEFAULT`]; see [`load_nifti_within`]).
+pub fn load_nifti(path: &Path, iso: f32, inside: Inside) -> Result<SampledVolume> {
+    load_nifti_within(path, iso, inside, Budget::DEFAULT)
+}
+
 /// Loads a NIfTI-1 file (`.nii`, or gzip-compressed `.nii.gz`). Dims, voxel type,
 /// spacing (`pixdim`) and intensity scaling (`scl_slope`, `scl_inter`) come from
 /// the header; the orientation matrices are not applied (voxel (0,0,0) is at the
 /// origin). Only the bytes the header describes are read (or inflated), after
-/// their size is checked against [`DEFAULT_MEMORY_BUDGET`].
-pub fn load_nifti(path: &Path, iso: f32, inside: Inside) -> Result<SampledVolume> {
+/// their size, with the decoded voxels, is checked against `budget`.
+pub fn load_nifti_within(
+    path: &Path,
+    iso: f32,
+    inside: Inside,
+    budget: Budget,
+) -> Result<SampledVolume> {
     let file = std::fs::File::open(path).map_err(|e| io_error(path, e))?;
-    let (dims, spacing, data) = read_nifti(std::io::BufReader::new(file), DEFAULT_MEMORY_BUDGET)
-        .map_err(|m| bad(path, m))?;
+    let (dims, spacing, data) =
+        read_nifti(std::io::BufReader::new(file), budget).map_err(|m| bad(path, m))?;
     finish(dims, spacing, data, iso, inside).map_err(|m| bad(path, m))
 }
 
 /// Parses NIfTI-1 bytes, gzip-compressed or not, into dims, spacing and scaled
-/// voxel values (see [`read_nifti`]; budget [`DEFAULT_MEMORY_BUDGET`]).
+/// voxel values (see [`read_nifti`]; budget [`Budget::DEFAULT`]).
 pub fn parse_nifti(b: &[u8]) -> std::result::Result<(UVec3, Vec3, Vec<f32>), String> {
-    read_nifti(b, DEFAULT_MEMORY_BUDGET)
+    read_nifti(b, Budget::DEFAULT)
 }
 
 /// Reads NIfTI-1 from `r` (gzip-compressed when it starts with the gzip magic):
@@ -44,7 +55,7 @@ pub fn parse_nifti(b: &[u8]) -> std::result::Result<(UVec3, Vec3, Vec<f32>), Str
 /// read, so a gzip bomb inflates no further than the header's volume.
 pub fn read_nifti(
     mut r: impl BufRead,
-    budget: u64,
+    budget: Budget,
 ) -> std::result::Result<(UVec3, Vec3, Vec<f32>), String> {
     let head = r.fill_buf().map_err(|e| format!("cannot read: {e}"))?;
     if head.starts_with(&[0x1f, 0x8b]) {
@@ -71,7 +82,7 @@ struct Header {
 
 fn read_plain(
     mut r: impl Read,
-    budget: u64,
+    budget: Budget,
     io_prefix: &str,
 ) -> std::result::Result<(UVec3, Vec3, Vec<f32>), String> {
     let io = |e: std::io::Error| format!("{io_prefix}{e}");

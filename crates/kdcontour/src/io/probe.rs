@@ -33,6 +33,7 @@ pub fn load(target: &str, data: &[u8]) -> Result<Input, String> {
         field,
         bounds,
         sampled,
+        held_bytes: 0,
         warnings: Vec::new(),
     };
     match target {
@@ -125,7 +126,7 @@ pub fn mesh_any(data: &[u8]) -> Option<MeshReport> {
     let grid = input.grid(8).ok()?;
     let settings = Settings {
         threads: 1,
-        memory_budget: 256 << 20,
+        memory_budget: crate::Budget::bytes(256 << 20),
         ..Default::default()
     };
     let tree = KdTree::build(&*input.field, &grid, &settings).ok()?;

@@ -2,13 +2,15 @@
 //! read in [`super::nifti`] and re-exported here.
 
 use super::{bad, read_limited};
+use crate::budget::Budget;
 use crate::error::Result;
 use crate::field::volume::{Inside, SampledVolume};
-use crate::settings::{check_budget, DEFAULT_MEMORY_BUDGET};
 use glam::{UVec3, Vec3};
 use std::path::Path;
 
-pub use super::nifti::{is_nifti, load_nifti, parse_nifti, read_nifti, write_nifti};
+pub use super::nifti::{
+    is_nifti, load_nifti, load_nifti_within, parse_nifti, read_nifti, write_nifti,
+};
 
 /// Voxel storage types of raw files.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -71,7 +73,7 @@ pub(crate) fn voxel_sizes(
     dims: UVec3,
     size: u64,
     extra: u64,
-    budget: u64,
+    budget: Budget,
 ) -> std::result::Result<(usize, usize), String> {
     let count = (dims.x as u64)
         .checked_mul(dims.y as u64)
@@ -82,14 +84,13 @@ pub(crate) fn voxel_sizes(
         .and_then(|b| b.checked_add(extra))
         .unwrap_or(u64::MAX);
     let what = format!("a volume of {}x{}x{} voxels", dims.x, dims.y, dims.z);
-    check_budget(what, needed, budget).map_err(|e| e.to_string())?;
+    budget.check(what, needed).map_err(|e| e.to_string())?;
     let count = count.expect("a count within the budget does not overflow");
     Ok((count as usize, (count * size) as usize))
 }
 
-/// Loads a headerless voxel file of `dims` voxels of type `ty` (x fastest). The
-/// sizes are checked against [`DEFAULT_MEMORY_BUDGET`] before reading, and no more
-/// than the voxels `dims` describe (plus one byte, to tell a longer file) is read.
+/// Loads a headerless voxel file of `dims` voxels of type `ty` (x fastest), within
+/// the default budget ([`Budget::DEFAULT`]; see [`load_raw_within`]).
 pub fn load_raw(
     path: &Path,
     dims: UVec3,
@@ -98,11 +99,26 @@ pub fn load_raw(
     iso: f32,
     inside: Inside,
 ) -> Result<SampledVolume> {
+    let layout = RawLayout { dims, ty, spacing };
+    load_raw_within(path, layout, iso, inside, Budget::DEFAULT)
+}
+
+/// Loads a headerless voxel file laid out as `layout` says. The stored and
+/// decoded sizes are checked against `budget` before reading, and no more than
+/// the voxels the layout describes (plus one byte, to tell a longer file) is
+/// read.
+pub fn load_raw_within(
+    path: &Path,
+    layout: RawLayout,
+    iso: f32,
+    inside: Inside,
+    budget: Budget,
+) -> Result<SampledVolume> {
+    let RawLayout { dims, ty, spacing } = layout;
     check_dims(dims)
         .and_then(|()| check_spacing(spacing))
         .map_err(|m| bad(path, m))?;
-    let (_, need) =
-        voxel_sizes(dims, ty.size() as u64, 0, DEFAULT_MEMORY_BUDGET).map_err(|m| bad(path, m))?;
+    let (_, need) = voxel_sizes(dims, ty.size() as u64, 0, budget).map_err(|m| bad(path, m))?;
     let bytes = read_limited(
         path,
         need as u64,
@@ -111,12 +127,12 @@ pub fn load_raw(
             dims.x, dims.y, dims.z
         ),
     )?;
-    raw_from_bytes(&bytes, dims, ty, spacing, iso, inside).map_err(|m| bad(path, m))
+    decode_raw(&bytes, layout, iso, inside, budget).map_err(|m| bad(path, m))
 }
 
 /// Decodes a headerless voxel file's bytes: `dims` voxels of type `ty`, x fastest,
-/// exactly as many bytes as they take. Every failure is a message saying what to
-/// change.
+/// exactly as many bytes as they take, within the default budget. Every failure
+/// is a message saying what to change.
 pub fn raw_from_bytes(
     bytes: &[u8],
     dims: UVec3,
@@ -125,9 +141,32 @@ pub fn raw_from_bytes(
     iso: f32,
     inside: Inside,
 ) -> std::result::Result<SampledVolume, String> {
+    let layout = RawLayout { dims, ty, spacing };
+    decode_raw(bytes, layout, iso, inside, Budget::DEFAULT)
+}
+
+/// How a raw file's voxels are laid out.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RawLayout {
+    /// Voxels along x, y, z (x fastest in the file).
+    pub dims: UVec3,
+    /// The stored type of each voxel.
+    pub ty: VoxelType,
+    /// Voxel spacing along x, y, z (world units).
+    pub spacing: Vec3,
+}
+
+/// [`raw_from_bytes`] with the decoded voxels checked against `budget`.
+fn decode_raw(
+    bytes: &[u8],
+    RawLayout { dims, ty, spacing }: RawLayout,
+    iso: f32,
+    inside: Inside,
+    budget: Budget,
+) -> std::result::Result<SampledVolume, String> {
     check_dims(dims)?;
     check_spacing(spacing)?;
-    let (count, need) = voxel_sizes(dims, ty.size() as u64, 0, DEFAULT_MEMORY_BUDGET)?;
+    let (count, need) = voxel_sizes(dims, ty.size() as u64, 0, budget)?;
     if bytes.len() != need {
         return Err(format!(
             "the file has {} bytes but {}x{}x{} voxels of {ty:?} need {need}; check --dims and --type{}",

@@ -228,7 +228,11 @@ impl LevelBuild {
             }
         }
         if let Some((position, value)) = bad.get() {
-            return Err(Error::NonFiniteSample { position, value });
+            return Err(Error::NonFiniteSample {
+                position,
+                value,
+                cause: field.explain_non_finite(position),
+            });
         }
         Ok(values)
     }

@@ -156,6 +156,33 @@ impl LevelWorld {
         Ok(world)
     }
 
+    /// Checks a level world of `chunks` chunks of `chunk_res`^3 cells against
+    /// `settings.memory_budget`: every chunk's bookkeeping and the builds running
+    /// at once (each build checks its own grid again before sampling). Call it
+    /// with the most chunks a layout can have (its level-0 chunks) before building
+    /// a large [`Layout`]; [`LevelWorld::set_layout`] checks the real count.
+    pub fn check_budget(chunks: u64, chunk_res: u32, settings: &Settings) -> Result<()> {
+        // Every chunk has `chunk_res`^3 cells whatever its level, so the world's
+        // surface memory is per chunk, not per level-0 cell of the region (a
+        // 4,096-cell view's region is 12,288 cells wide but holds ~1,500 chunks).
+        let grid = level_grid(Vec3::ZERO, 1.0, chunk_res, &ChunkKey::new(0, IVec3::ZERO));
+        let threads = match settings.threads {
+            0 => rayon::current_num_threads(),
+            n => n,
+        } as u64;
+        let entry = (std::mem::size_of::<(ChunkKey, Slot)>()
+            + std::mem::size_of::<(ChunkKey, Neighbourhood)>()
+            + 2) as u64;
+        let needed = chunks
+            .saturating_mul(entry)
+            .saturating_add(threads.saturating_mul(crate::hermite::estimate_bytes(&grid)));
+        crate::settings::check_budget(
+            format!("a level world of {chunks} chunks of {chunk_res}^3 cells"),
+            needed,
+            settings.memory_budget,
+        )
+    }
+
     /// The layout.
     pub fn layout(&self) -> &Layout {
         &self.layout
@@ -189,31 +216,7 @@ impl LevelWorld {
             });
         }
         let chunks = layout.chunks();
-        // Every chunk has `chunk_res`^3 cells whatever its level, so the world's
-        // surface memory is per chunk, not per level-0 cell of the region (a
-        // 4,096-cell view's region is 12,288 cells wide but holds ~1,500 chunks):
-        // budget the chunks' bookkeeping and the builds running at once; each
-        // build checks its own grid against the budget again before sampling.
-        let grid = self.chunk_grid(&ChunkKey::new(0, IVec3::ZERO));
-        let threads = match self.settings.threads {
-            0 => rayon::current_num_threads(),
-            n => n,
-        } as u64;
-        let entry = (std::mem::size_of::<(ChunkKey, Slot)>()
-            + std::mem::size_of::<(ChunkKey, Neighbourhood)>()
-            + 2) as u64;
-        let needed = (chunks.len() as u64)
-            .saturating_mul(entry)
-            .saturating_add(threads.saturating_mul(crate::hermite::estimate_bytes(&grid)));
-        crate::settings::check_budget(
-            format!(
-                "a level world of {} chunks of {}^3 cells",
-                chunks.len(),
-                self.chunk_res
-            ),
-            needed,
-            self.settings.memory_budget,
-        )?;
+        Self::check_budget(chunks.len() as u64, self.chunk_res, &self.settings)?;
         self.slots.retain(|k, _| layout.contains(k));
         for k in chunks {
             self.slots.entry(k).or_insert(Slot {

@@ -13,9 +13,9 @@ impl CsgNode {
             return check_all(&primitive.params, path);
         }
         let noise = |amplitude, frequency, octaves| {
-            terrain::check_noise(amplitude, frequency, octaves).map_err(|message| {
+            terrain::check_noise(amplitude, frequency, octaves).map_err(|(field, message)| {
                 SceneError::Semantic {
-                    path: path.to_string(),
+                    path: format!("{path}.{field}"),
                     message,
                 }
             })
@@ -59,7 +59,7 @@ impl CsgNode {
                 match &p.caves {
                     Some(c) => {
                         let mut params = vec![
-                            param("caves.frequency", c.frequency, Positive),
+                            param("caves.frequency", c.frequency, UpTo(terrain::MAX_FREQUENCY)),
                             param("caves.radius", c.radius, Positive),
                         ];
                         if let Some(d) = c.depth {
@@ -205,6 +205,11 @@ mod tests {
                 r#"{"type":"density","amplitude":1,"frequency":1,"caves":{"frequency":1,"radius":0}}"#,
                 "root.caves.radius",
                 "must be a finite number > 0, got 0",
+            ),
+            (
+                r#"{"type":"density","amplitude":1,"frequency":1,"caves":{"frequency":1e30,"radius":1}}"#,
+                "root.caves.frequency",
+                "must be > 0 and at most 1000000, got 1000000000000000000000000000000",
             ),
         ];
         for (text, path, message) in cases {

@@ -13,6 +13,30 @@ fn smin(a: (f32, Vec3), b: (f32, Vec3), k: f32) -> (f32, Vec3) {
     (d, b.1.lerp(a.1, h))
 }
 
+/// The smaller of `a` and `b`, NaN if either is: a child out of its noise's
+/// reach must not vanish from a union (`f32::min` drops a NaN).
+pub(super) fn nan_min(a: f32, b: f32) -> f32 {
+    if a.is_nan() || b.is_nan() {
+        f32::NAN
+    } else {
+        a.min(b)
+    }
+}
+
+/// The larger of `a` and `b`, NaN if either is (see [`nan_min`]).
+pub(super) fn nan_max(a: f32, b: f32) -> f32 {
+    if a.is_nan() || b.is_nan() {
+        f32::NAN
+    } else {
+        a.max(b)
+    }
+}
+
+/// Whether `b` replaces `a` as the larger (or, with `b` NaN, the unknown) value.
+fn above(b: f32, a: f32) -> bool {
+    b > a || b.is_nan()
+}
+
 /// The value and gradient of the complement.
 fn neg(a: (f32, Vec3)) -> (f32, Vec3) {
     (-a.0, -a.1)
@@ -33,7 +57,7 @@ impl Node {
                         }
                     }
                     let v = c.eval(p);
-                    if v.0 < best.0 {
+                    if above(-v.0, -best.0) {
                         best = v;
                     }
                 }
@@ -42,7 +66,7 @@ impl Node {
             Op::Intersection(ch) => ch
                 .iter()
                 .map(|c| c.eval(p))
-                .reduce(|a, b| if b.0 > a.0 { b } else { a })
+                .reduce(|a, b| if above(b.0, a.0) { b } else { a })
                 .unwrap(),
             Op::Difference(a, b) => {
                 let a = a.eval(p);
@@ -52,7 +76,7 @@ impl Node {
                     }
                 }
                 let b = neg(b.eval(p));
-                if b.0 > a.0 {
+                if above(b.0, a.0) {
                     b
                 } else {
                     a
@@ -98,14 +122,14 @@ impl Node {
                             continue;
                         }
                     }
-                    best = best.min(c.value(p));
+                    best = nan_min(best, c.value(p));
                 }
                 best
             }
             Op::Intersection(ch) => ch
                 .iter()
                 .map(|c| c.value(p))
-                .fold(f32::NEG_INFINITY, f32::max),
+                .fold(f32::NEG_INFINITY, nan_max),
             Op::Difference(a, b) => {
                 let a = a.value(p);
                 if let Some(bb) = b.bound {
@@ -113,7 +137,7 @@ impl Node {
                         return a;
                     }
                 }
-                a.max(-b.value(p))
+                nan_max(a, -b.value(p))
             }
             Op::Transform {
                 inv_rot,
@@ -145,6 +169,43 @@ fn exact(op: &Op) -> bool {
     }
 }
 
+impl Node {
+    /// Why this node (at `path`, named as the scene file's checks name it) or a
+    /// node below it gives no finite value at `p`: a noise node out of its reach.
+    fn explain(&self, p: Vec3, path: &str) -> Option<String> {
+        let all = |ch: &[Node]| {
+            ch.iter()
+                .enumerate()
+                .find_map(|(i, c)| c.explain(p, &format!("{path}.children[{i}]")))
+        };
+        let pair = |a: &Node, b: &Node| {
+            a.explain(p, &format!("{path}.a"))
+                .or_else(|| b.explain(p, &format!("{path}.b")))
+        };
+        let (kind, fault) = match &self.op {
+            Op::Prim(..) => return None,
+            Op::Union(ch)
+            | Op::Intersection(ch)
+            | Op::SmoothUnion(_, ch)
+            | Op::SmoothIntersection(_, ch) => return all(ch),
+            Op::Difference(a, b) | Op::SmoothDifference(_, a, b) => return pair(a, b),
+            Op::Transform {
+                inv_rot,
+                translate,
+                scale,
+                child,
+                ..
+            } => {
+                let q = *inv_rot * (p - *translate) / *scale;
+                return child.explain(q, &format!("{path}.child"));
+            }
+            Op::Heightfield(h) => ("heightfield", h.reach_fault(p)),
+            Op::Density(d) => ("density", d.reach_fault(p)),
+        };
+        fault.map(|f| format!("scene node `{path}` ({kind}): {f}"))
+    }
+}
+
 impl Field for Csg {
     fn value(&self, p: Vec3) -> f32 {
         self.root.value(p)
@@ -159,6 +220,11 @@ impl Field for Csg {
         out: &mut [f32],
     ) {
         self.root.sample(grid, z_range, out)
+    }
+    /// The first noise node (depth first) out of its reach at `p`, by its node
+    /// path: `scene node `root.child` (heightfield): noise evaluated too far ...`.
+    fn explain_non_finite(&self, p: Vec3) -> Option<String> {
+        self.root.explain(p, "root")
     }
     fn lipschitz(&self) -> Option<f32> {
         // Primitives are exact distances; min, max, the polynomial smooth min (whose

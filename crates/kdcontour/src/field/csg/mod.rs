@@ -21,7 +21,8 @@
 //! `transform` (`translate`, `rotate_axis` + `rotate_degrees`, uniform `scale`); and
 //! noise terrain `heightfield` and `density` (see [`super::terrain`]).
 //!
-//! A scene nests at most [`MAX_DEPTH`] nodes deep.
+//! A scene nests at most [`MAX_DEPTH`] nodes deep, and holds no string longer than
+//! [`MAX_NAME`] bytes.
 //!
 //! The module is split by job: [`CsgNode`] and its JSON in `schema`, read node by
 //! node in `parse`; the fields
@@ -42,5 +43,5 @@ mod sample;
 mod schema;
 
 pub use compile::Csg;
-pub use parse::MAX_DEPTH;
+pub use parse::{MAX_DEPTH, MAX_NAME};
 pub use schema::CsgNode;

@@ -13,6 +13,8 @@ pub(super) enum Range {
     Positive,
     /// Finite and >= 0.
     NonNegative,
+    /// > 0 and at most the value given.
+    UpTo(f32),
     /// Finite and larger than another field (its name and value).
     Above(&'static str, f32),
     /// Smaller than another field (its name and value).
@@ -107,6 +109,9 @@ impl Range {
         match self {
             Range::Positive => (!(v.is_finite() && v > 0.0))
                 .then(|| format!("must be a finite number > 0, got {v}")),
+            Range::UpTo(max) => {
+                (!(v > 0.0 && v <= max)).then(|| format!("must be > 0 and at most {max}, got {v}"))
+            }
             Range::NonNegative => {
                 (!(v.is_finite() && v >= 0.0)).then(|| format!("must be finite and >= 0, got {v}"))
             }

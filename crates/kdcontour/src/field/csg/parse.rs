@@ -4,7 +4,7 @@
 
 use super::CsgNode;
 use crate::error::SceneError;
-use crate::io::{cut, cut_quoted};
+use crate::io::{cut, cut_quoted, MAX_QUOTED};
 use serde::Deserialize;
 use serde_json::{Map, Value};
 
@@ -13,9 +13,57 @@ use serde_json::{Map, Value};
 /// and every level costs stack when the scene is checked, compiled and evaluated.
 pub const MAX_DEPTH: usize = 32;
 
+/// The longest string a scene file may hold (bytes): its strings are node types
+/// and field names, all far shorter.
+pub const MAX_NAME: usize = 64;
+
+/// The first string of `text` longer than [`MAX_NAME`] bytes: its line and
+/// column (1-based), its length in bytes and its first characters. JSON has
+/// quotes only around strings, so a scan that skips escaped characters finds
+/// every string of a valid text.
+fn long_string(text: &str) -> Option<(usize, usize, usize, String)> {
+    let b = text.as_bytes();
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] != b'"' {
+            i += 1;
+            continue;
+        }
+        let start = i + 1;
+        let mut j = start;
+        while j < b.len() && b[j] != b'"' {
+            j += if b[j] == b'\\' { 2 } else { 1 };
+        }
+        let end = j.min(b.len());
+        if end - start > MAX_NAME {
+            let before = &text[..i];
+            let line = before.matches('\n').count() + 1;
+            let column = before.len() - before.rfind('\n').map_or(0, |n| n + 1) + 1;
+            // `start` follows an ASCII quote, so it is a char boundary.
+            let head = text[start..].chars().take(MAX_QUOTED).collect();
+            return Some((line, column, end - start, head));
+        }
+        i = j + 1;
+    }
+    None
+}
+
 /// Parses a scene file's text: syntax errors carry line and column; schema errors
 /// (unknown type or field, a missing or mistyped value, too deep) the node path.
+/// A string longer than any name is refused first, before the text is copied
+/// into a tree.
 pub(super) fn parse(text: &str) -> Result<CsgNode, SceneError> {
+    if let Some((line, column, len, head)) = long_string(text) {
+        return Err(SceneError::Syntax {
+            line,
+            column,
+            message: format!(
+                "a string of {len} bytes (`{head}...`); a scene file's strings are node \
+                 types and field names, none longer than {MAX_NAME} bytes (see \
+                 assets/scenes/README.md)"
+            ),
+        });
+    }
     let value: Value = serde_json::from_str(text).map_err(|e| {
         let message = e.to_string();
         let message = message.split(" at line ").next().unwrap_or("");
@@ -190,11 +238,22 @@ mod tests {
 
     #[test]
     fn long_names_are_cut() {
+        // Longer than any name: refused by its place before it is parsed.
         let ty = "x".repeat(1 << 20);
-        let got = err(&format!(r#"{{"type":"{ty}"}}"#));
+        let got = err(&format!("{{\n  \"type\": \"{ty}\"}}"));
         assert!(got.len() < 600, "{} bytes", got.len());
-        assert!(got.contains("1048576 bytes in all"), "{got}");
-        assert!(got.contains("expected one of"), "{got}");
+        assert!(got.starts_with("scene file line 2, column 11: "), "{got}");
+        assert!(got.contains("a string of 1048576 bytes"), "{got}");
+        // Escaped quotes do not end a string.
+        let got = err(&format!(r#"{{"type":"sphere","radius":"{}\"{ty}"}}"#, "a"));
+        assert!(got.contains("a string of 1048579 bytes"), "{got}");
+        // Within the limit, unknown names are cut by the schema's message.
+        let ty = "y".repeat(MAX_NAME);
+        let got = err(&format!(r#"{{"type":"{ty}"}}"#));
+        assert!(
+            got.contains("bytes in all") && got.contains("expected one of"),
+            "{got}"
+        );
     }
 
     #[test]

@@ -3,6 +3,7 @@
 //! the very same values as [`Node::value`].
 
 use super::compile::{Node, Op};
+use super::eval::{nan_max, nan_min};
 use crate::field::Field;
 use crate::grid::Grid;
 
@@ -37,15 +38,15 @@ impl Node {
             Op::Heightfield(h) => h.sample_grid(grid, z_range, out),
             Op::Union(ch) if self.batches() => {
                 out.fill(f32::INFINITY);
-                combine(out, &mut ch.iter(), f32::min);
+                combine(out, &mut ch.iter(), nan_min);
             }
             Op::Intersection(ch) if self.batches() => {
                 out.fill(f32::NEG_INFINITY);
-                combine(out, &mut ch.iter(), f32::max);
+                combine(out, &mut ch.iter(), nan_max);
             }
             Op::Difference(a, b) if self.batches() => {
                 a.sample(grid, z_range.clone(), out);
-                combine(out, &mut std::iter::once(&**b), |a, b| a.max(-b));
+                combine(out, &mut std::iter::once(&**b), |a, b| nan_max(a, -b));
             }
             _ => crate::field::sample_each(grid, z_range, out, |p| self.value(p)),
         }

@@ -1,0 +1,240 @@
+//! The memory budget: one value, set once per command (or per plugin), that every
+//! loader and every grid and world build checks its size against before it
+//! allocates: a volume's voxels after inflation, a mesh's elements, a grid's
+//! samples and tree, all the chunks of a world together.
+//!
+//! A [`Budget`] travels in [`crate::Settings::memory_budget`] to the builds and
+//! is passed to the `*_within` loaders of [`crate::io`]; what one step holds when
+//! the next starts (a loaded volume while its grid is built) is taken off with
+//! [`Budget::less`], so the budget covers the whole command, not each step alone.
+
+use crate::error::{Error, Result};
+use std::fmt;
+
+/// The default memory budget in bytes (4 GiB); see [`Budget::DEFAULT`].
+pub const DEFAULT_MEMORY_BUDGET: u64 = 4 << 30;
+
+/// The most bytes a command, load or build may allocate. Parses from `4GiB`,
+/// `512MB`, `1073741824` (see [`Budget::parse`]); the default is 4 GiB.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Budget(u64);
+
+impl Budget {
+    /// The default budget, [`DEFAULT_MEMORY_BUDGET`] (4 GiB).
+    pub const DEFAULT: Budget = Budget(DEFAULT_MEMORY_BUDGET);
+
+    /// A budget of `bytes` bytes (0 refuses everything).
+    pub const fn bytes(bytes: u64) -> Budget {
+        Budget(bytes)
+    }
+
+    /// The budget in bytes.
+    pub const fn get(self) -> u64 {
+        self.0
+    }
+
+    /// What is left once `held` bytes are spent (0 at least): the budget of the
+    /// next step of a command while the previous step's result is kept.
+    pub const fn less(self, held: u64) -> Budget {
+        Budget(self.0.saturating_sub(held))
+    }
+
+    /// Refuses `needed` bytes for `what` when they exceed the budget, before
+    /// anything is allocated ([`Error::TooLarge`]).
+    pub fn check(self, what: impl Into<String>, needed: u64) -> Result<()> {
+        check_budget(what, needed, self)
+    }
+
+    /// Parses a size: a positive number of bytes, whole or decimal, with an
+    /// optional unit (any case, a space allowed): `B`; `KB`, `MB`, `GB`, `TB`
+    /// (powers of 1000); `KiB`, `MiB`, `GiB`, `TiB` (powers of 1024). `512MB`,
+    /// `4GiB`, `1.5 GiB` and `1073741824` are budgets; `0`, `-1`, `4G` and `lots`
+    /// are refused with a message saying what is valid.
+    pub fn parse(s: &str) -> std::result::Result<Budget, String> {
+        let t = s.trim();
+        let split = t
+            .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+            .unwrap_or(t.len());
+        let (number, unit) = t.split_at(split);
+        let valid = "give a positive size in bytes, e.g. 1073741824, 512MB or 4GiB \
+                     (KB, MB, GB, TB are powers of 1000; KiB, MiB, GiB, TiB of 1024)";
+        // Cut as `io::cut` does (this module sits below `io`).
+        let quoted = match s.char_indices().nth(60) {
+            Some((i, _)) => format!("{}... ({} bytes in all)", &s[..i], s.len()),
+            None => s.to_string(),
+        };
+        let value: f64 = number
+            .parse()
+            .map_err(|_| format!("`{quoted}` is not a size; {valid}"))?;
+        let scale: u64 = match unit.trim().to_ascii_lowercase().as_str() {
+            "" | "b" => 1,
+            "kb" => 1_000,
+            "mb" => 1_000_000,
+            "gb" => 1_000_000_000,
+            "tb" => 1_000_000_000_000,
+            "kib" => 1 << 10,
+            "mib" => 1 << 20,
+            "gib" => 1 << 30,
+            "tib" => 1 << 40,
+            _ => return Err(format!("`{quoted}`: unknown size unit; {valid}")),
+        };
+        let bytes = value * scale as f64;
+        // Digits and dots only: never NaN.
+        if bytes < 1.0 {
+            return Err(format!(
+                "`{quoted}` is no memory at all: every load and build would be refused; {valid}"
+            ));
+        }
+        if bytes >= u64::MAX as f64 {
+            return Err(format!("`{quoted}` is more than 2^64 bytes; {valid}"));
+        }
+        Ok(Budget(bytes as u64))
+    }
+}
+
+impl Default for Budget {
+    fn default() -> Self {
+        Budget::DEFAULT
+    }
+}
+
+impl From<u64> for Budget {
+    fn from(bytes: u64) -> Self {
+        Budget(bytes)
+    }
+}
+
+impl From<Budget> for u64 {
+    fn from(b: Budget) -> u64 {
+        b.0
+    }
+}
+
+impl std::str::FromStr for Budget {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Budget, String> {
+        Budget::parse(s)
+    }
+}
+
+/// Bytes as people read them: `4 GiB`, `1.5 MiB`, `300 bytes` (binary units,
+/// three significant figures; whole numbers print without a fraction).
+pub struct Size(pub u64);
+
+impl fmt::Display for Size {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        const UNITS: [&str; 6] = ["KiB", "MiB", "GiB", "TiB", "PiB", "EiB"];
+        if self.0 < 1024 {
+            return write!(f, "{} bytes", self.0);
+        }
+        let mut v = self.0 as f64;
+        let mut unit = "bytes";
+        for u in UNITS {
+            if v < 1024.0 {
+                break;
+            }
+            v /= 1024.0;
+            unit = u;
+        }
+        if v.fract() == 0.0 {
+            write!(f, "{v} {unit}")
+        } else if v < 10.0 {
+            write!(f, "{v:.2} {unit}")
+        } else if v < 100.0 {
+            write!(f, "{v:.1} {unit}")
+        } else {
+            write!(f, "{v:.0} {unit}")
+        }
+    }
+}
+
+impl fmt::Display for Budget {
+    /// The budget as people read it (`4 GiB`); see [`Size`].
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        Size(self.0).fmt(f)
+    }
+}
+
+/// Refuses `needed` bytes for `what` when they exceed `budget` (a [`Budget`] or
+/// bytes), before anything is allocated ([`Error::TooLarge`]).
+pub fn check_budget(what: impl Into<String>, needed: u64, budget: impl Into<u64>) -> Result<()> {
+    let budget = budget.into();
+    if needed > budget {
+        return Err(Error::TooLarge {
+            what: what.into(),
+            needed,
+            budget,
+        });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_parse_with_decimal_and_binary_units() {
+        for (text, bytes) in [
+            ("1073741824", 1 << 30),
+            ("512MB", 512_000_000),
+            ("512mb", 512_000_000),
+            ("4GiB", 4 << 30),
+            ("4 gib", 4 << 30),
+            ("1.5GiB", 3 << 29),
+            ("100 KiB", 102_400),
+            ("2TB", 2_000_000_000_000),
+            ("1B", 1),
+        ] {
+            assert_eq!(Budget::parse(text), Ok(Budget::bytes(bytes)), "{text}");
+            assert_eq!(text.parse::<Budget>(), Ok(Budget::bytes(bytes)), "{text}");
+        }
+    }
+
+    #[test]
+    fn bad_sizes_say_what_is_valid() {
+        for (text, says) in [
+            ("0", "no memory at all"),
+            ("0GiB", "no memory at all"),
+            ("0.1", "no memory at all"),
+            ("-1", "not a size"),
+            ("", "not a size"),
+            ("lots", "not a size"),
+            ("4G", "unknown size unit"),
+            ("4 GiB extra", "unknown size unit"),
+            ("1.2.3MB", "not a size"),
+            ("99999999999TiB", "more than 2^64"),
+        ] {
+            let e = Budget::parse(text).unwrap_err();
+            assert!(e.contains(says), "{text}: {e}");
+            assert!(e.contains("512MB or 4GiB"), "{text}: {e}");
+        }
+        let long = "9".repeat(10_000) + "x";
+        assert!(Budget::parse(&long).unwrap_err().len() < 300);
+    }
+
+    #[test]
+    fn budgets_print_as_people_read_them_and_shrink_as_they_are_spent() {
+        assert_eq!(Budget::DEFAULT.to_string(), "4 GiB");
+        assert_eq!(Budget::default(), Budget::bytes(DEFAULT_MEMORY_BUDGET));
+        assert_eq!(Size(300).to_string(), "300 bytes");
+        assert_eq!(Size(1536).to_string(), "1.50 KiB");
+        assert_eq!(Size(512_000_000).to_string(), "488 MiB");
+        assert_eq!(Budget::bytes(100).less(30), Budget::bytes(70));
+        assert_eq!(Budget::bytes(100).less(300), Budget::bytes(0));
+        assert!(Budget::bytes(100).check("x", 100).is_ok());
+        let e = Budget::bytes(100).check("a test", 101).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                Error::TooLarge {
+                    needed: 101,
+                    budget: 100,
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
+        assert_eq!(u64::from(Budget::bytes(7)), 7);
+    }
+}
