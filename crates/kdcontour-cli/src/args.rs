@@ -2,12 +2,13 @@
 //! meshing run (`mesh`, `compare`) and the memory budget (every command that
 //! allocates).
 
+use kdcontour::boundary::CappedField;
 use kdcontour::budget::Size;
 use kdcontour::field::volume::Inside;
 use kdcontour::io::input::{parse_uvec3, parse_vec3, Input as Loaded};
 use kdcontour::io::volume::{self, VoxelType};
 use kdcontour::validate::Checks;
-use kdcontour::{Budget, Error, Field, Grid, Settings};
+use kdcontour::{Boundary, Budget, Error, Field, Grid, Settings};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -167,6 +168,11 @@ pub struct RunArgs {
     /// for `compare`).
     #[arg(long)]
     pub json: bool,
+    /// What a surface does where it leaves the grid: `open` (ends half a cell
+    /// inside) or `capped` (closed by caps on the grid's faces; checked against
+    /// the field cut by the grid's box).
+    #[arg(long, default_value = "open")]
+    pub boundary: String,
     /// Skip the costly checks (crossing and overlapping triangles, the two-sided
     /// distance and the lost surface); the others always run.
     #[arg(long)]
@@ -186,11 +192,25 @@ impl RunArgs {
                 self.threshold
             ));
         }
+        let boundary = Boundary::parse(&self.boundary).ok_or(format!(
+            "--boundary must be `open` or `capped`, got `{}`",
+            self.boundary
+        ))?;
         let budget = self.memory.budget;
         let loaded = input.load(budget)?;
+        for w in &loaded.warnings {
+            eprintln!("warning: {w}");
+        }
         let grid = loaded.grid(self.res).map_err(|e| e.to_string())?;
         let left = budget.less(loaded.held_bytes);
-        Ok((loaded, grid, settings(self.threads, left)))
+        Ok((
+            loaded,
+            grid,
+            Settings {
+                boundary,
+                ..settings(self.threads, left)
+            },
+        ))
     }
 
     /// What to check a mesh of `field` on `grid` for.
@@ -204,6 +224,12 @@ impl RunArgs {
             Checks::all(field, grid)
         }
     }
+}
+
+/// The field a capped mesh of `field` on `grid` is checked against (the field cut
+/// by the grid's box), or `None` for open meshes (checked against `field`).
+pub fn capped<'a>(field: &'a dyn Field, grid: &Grid, s: &Settings) -> Option<CappedField<'a>> {
+    (s.boundary == Boundary::Capped).then(|| CappedField::new(field, grid))
 }
 
 /// Default settings on `threads` worker threads (0 = all cores) within `budget`.

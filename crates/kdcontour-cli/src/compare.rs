@@ -17,7 +17,11 @@ pub struct Compare {
 pub fn run(args: Compare) -> Result<(), String> {
     let (loaded, grid, settings) = args.run.prepare(&args.input)?;
     let (scene, field) = (&loaded.name, &*loaded.field);
-    let checks = args.run.checks(field, &grid);
+    let capped = crate::args::capped(field, &grid, &settings);
+    let checked = capped
+        .as_ref()
+        .map_or(field, |c| c as &dyn kdcontour::Field);
+    let checks = args.run.checks(checked, &grid);
     let RunArgs {
         res,
         threshold,
@@ -94,11 +98,12 @@ pub fn run(args: Compare) -> Result<(), String> {
 /// run).
 fn print_geometry(reports: &[(&str, kdcontour::MeshReport)]) {
     println!(
-        "{:<15} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9} {:>7}",
+        "{:<15} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9} {:>7}",
         "mesher",
         "zero-area",
         "slivers",
         "flipped",
+        "folded",
         "crossing",
         "overlap",
         "depth",
@@ -110,11 +115,12 @@ fn print_geometry(reports: &[(&str, kdcontour::MeshReport)]) {
     for (name, r) in reports {
         let (i, d) = (r.intersections.as_ref(), r.distance.as_ref());
         println!(
-            "{:<15} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9} {:>7}",
+            "{:<15} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9} {:>7}",
             name,
             r.zero_area_triangles,
             r.sliver_triangles,
             opt(r.flipped_triangles.map(|n| n.to_string())),
+            opt(r.folds.as_ref().map(|f| f.folded.to_string())),
             opt(i.map(|i| i.crossing_pairs.to_string())),
             opt(i.map(|i| i.overlapping_pairs.to_string())),
             opt(i.map(|i| format!("{:.3}", i.max_depth))),

@@ -1,10 +1,11 @@
-//! `kdcontour mesh`: one input through the k-d tree, with size, times and checks.
+//! `kdcontour mesh`: one input through one mesher (the k-d tree unless
+//! `--mesher` names another), with size, times and checks.
 
 use crate::args::{Input, RunArgs};
 use crate::output::{json_line, print_checks};
-use kdcontour::meshers::Timings;
+use kdcontour::meshers::{self, Mesher, Timings};
 use kdcontour::validate::validate_with;
-use kdcontour::{IndexedMesh, KdTree};
+use kdcontour::{Field, Grid, IndexedMesh, KdTree, Partition, Settings};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -14,17 +15,33 @@ pub struct Mesh {
     input: Input,
     #[command(flatten)]
     run: RunArgs,
+    /// The mesher: `kdtree`, `octree`, `dmc` (uniform Dual Marching Cubes) or
+    /// `marching-cubes`, all on the same Hermite data.
+    #[arg(long, default_value = "kdtree")]
+    mesher: String,
     /// Write the mesh to this .obj or .ply file.
     #[arg(long)]
     out: Option<PathBuf>,
 }
 
 pub fn run(args: Mesh) -> Result<(), String> {
-    let Mesh { input, run, out } = args;
+    let Mesh {
+        input,
+        run,
+        mesher,
+        out,
+    } = args;
+    let names = Mesher::ALL.map(Mesher::name).join(", ");
+    let mesher =
+        Mesher::parse(&mesher).ok_or(format!("--mesher must be one of {names}, got `{mesher}`"))?;
     crate::args::check_out(out.as_deref())?;
     let (loaded, grid, settings) = run.prepare(&input)?;
     let (scene, field) = (&loaded.name, &*loaded.field);
-    let checks = run.checks(field, &grid);
+    let capped = crate::args::capped(field, &grid, &settings);
+    let checked = capped
+        .as_ref()
+        .map_or(field, |c| c as &dyn kdcontour::Field);
+    let checks = run.checks(checked, &grid);
     let RunArgs {
         res,
         threshold,
@@ -32,31 +49,23 @@ pub fn run(args: Mesh) -> Result<(), String> {
         ..
     } = run;
     let t0 = Instant::now();
-    let tree =
-        KdTree::build(field, &grid, &settings).map_err(|e| crate::args::build_error(&loaded, e))?;
+    let (mesh, times, tree) = make(mesher, field, &grid, threshold, &settings)
+        .map_err(|e| crate::args::build_error(&loaded, e))?;
     let t1 = Instant::now();
-    let mut mesh = IndexedMesh::default();
-    settings
-        .run(|| tree.extract(threshold, &mut mesh))
-        .map_err(|e| e.to_string())?;
-    let t2 = Instant::now();
     let report = validate_with(&mesh, &checks);
-    let t3 = Instant::now();
+    let t2 = Instant::now();
     if let Some(path) = &out {
         mesh.save(path).map_err(|e| e.to_string())?;
     }
-    let contour_ms = (t2 - t1).as_secs_f64() * 1e3;
-    let total_ms = (t2 - t0).as_secs_f64() * 1e3;
     if json {
-        let times = Timings {
-            sample_ms: tree.stats.sample_ms,
-            build_ms: tree.stats.build_ms,
-            contour_ms,
-        };
-        let line = json_line("kdtree", scene, res, threshold, &report, &times);
+        let line = json_line(mesher.name(), scene, res, threshold, &report, &times);
         say!("{line}");
     } else {
-        say!("scene      {scene} at res {res}, threshold {threshold}");
+        let by = match mesher {
+            Mesher::KdTree => String::new(),
+            other => format!(", mesher {}", other.name()),
+        };
+        say!("scene      {scene} at res {res}, threshold {threshold}{by}");
         say!(
             "mesh       {} triangles, {} vertices, {} components, Euler {}",
             report.triangles,
@@ -67,22 +76,58 @@ pub fn run(args: Mesh) -> Result<(), String> {
         print_checks(&report);
         say!(
             "time       sample {:.2} ms, build {:.2} ms, contour {:.2} ms, total {:.2} ms (checks {:.2} ms)",
-            tree.stats.sample_ms,
-            tree.stats.build_ms,
-            contour_ms,
-            total_ms,
-            (t3 - t2).as_secs_f64() * 1e3
+            times.sample_ms,
+            times.build_ms,
+            times.contour_ms,
+            (t1 - t0).as_secs_f64() * 1e3,
+            (t2 - t1).as_secs_f64() * 1e3
         );
-        say!(
-            "tree       {} nodes, {} components, {} bytes retained ({:.1} per node)",
-            tree.nodes.len(),
-            tree.comps.len(),
-            tree.retained_bytes(),
-            tree.retained_bytes() as f64 / tree.nodes.len().max(1) as f64
-        );
+        if let Some(tree) = tree {
+            say!(
+                "tree       {} nodes, {} components, {} bytes retained ({:.1} per node)",
+                tree.nodes.len(),
+                tree.comps.len(),
+                tree.retained_bytes(),
+                tree.retained_bytes() as f64 / tree.nodes.len().max(1) as f64
+            );
+        }
         if let Some(p) = out {
             say!("wrote      {}", p.display());
         }
     }
     Ok(())
+}
+
+/// Meshes `field` with `mesher`: the trees through [`KdTree::build`] (returned,
+/// for their size), the uniform meshers through [`meshers::run`].
+fn make(
+    mesher: Mesher,
+    field: &dyn Field,
+    grid: &Grid,
+    threshold: f32,
+    settings: &Settings,
+) -> kdcontour::Result<(IndexedMesh, Timings, Option<KdTree>)> {
+    let partition = match mesher {
+        Mesher::KdTree => Partition::KdTree,
+        Mesher::Octree => Partition::Octree,
+        Mesher::MarchingCubes | Mesher::UniformDmc => {
+            let sampled = meshers::sample(field, grid, settings)?;
+            let (mesh, times) = meshers::run(mesher, &sampled, threshold, settings)?;
+            return Ok((mesh, times, None));
+        }
+    };
+    let settings = Settings {
+        partition,
+        ..settings.clone()
+    };
+    let tree = KdTree::build(field, grid, &settings)?;
+    let t = Instant::now();
+    let mut mesh = IndexedMesh::default();
+    settings.run(|| tree.extract(threshold, &mut mesh))?;
+    let times = Timings {
+        sample_ms: tree.stats.sample_ms,
+        build_ms: tree.stats.build_ms,
+        contour_ms: t.elapsed().as_secs_f64() * 1e3,
+    };
+    Ok((mesh, times, Some(tree)))
 }

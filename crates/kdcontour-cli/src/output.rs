@@ -58,7 +58,16 @@ pub fn json_line(
 pub fn geometry_json(r: &MeshReport) -> serde_json::Value {
     let i = r.intersections.as_ref();
     let d = r.distance.as_ref();
+    let f = r.folds.as_ref();
     serde_json::json!({
+        "fold_bucket_degrees": kdcontour::validate::FOLD_BUCKET_DEGREES,
+        "fold_histogram": f.map(|f| f.histogram),
+        "fold_max_degrees": f.map(|f| f.max_degrees),
+        "fold_mean_degrees": f.map(|f| f.mean_degrees),
+        "folded_triangles": f.map(|f| f.folded),
+        "folded_share": f.map(|f| f.folded_share),
+        "folds_near_creases": f.map(|f| f.near_crease),
+        "fold_no_gradient": f.map(|f| f.no_gradient),
         "zero_area_triangles": r.zero_area_triangles,
         "coincident_vertices": r.coincident_vertices,
         "sliver_triangles": r.sliver_triangles,
@@ -98,6 +107,23 @@ pub fn print_checks(r: &MeshReport) {
         r.sliver_triangles,
         kdcontour::validate::SLIVER_DEGREES
     );
+    if let Some(f) = &r.folds {
+        use kdcontour::validate::{FOLD_BUCKET_DEGREES, FOLD_DEGREES};
+        let buckets: Vec<String> = FOLD_BUCKET_DEGREES
+            .iter()
+            .zip(f.histogram)
+            .map(|(edge, n)| format!("<{edge}:{n}"))
+            .collect();
+        println!(
+            "folds      normal vs gradient (deg) {}; max {:.1}, mean {:.2}; {} folded > {FOLD_DEGREES} deg off creases ({:.3}%), {} near creases",
+            buckets.join(" "),
+            f.max_degrees,
+            f.mean_degrees,
+            f.folded,
+            100.0 * f.folded_share,
+            f.near_crease
+        );
+    }
     if let Some(i) = &r.intersections {
         println!(
             "crossings  {} pairs ({} triangles, depth {:.3} cells), {} coplanar overlapping pairs ({} triangles)",

@@ -61,12 +61,24 @@ fn json_is_exactly_one_line_with_every_key() {
         "surface_to_mesh_mean",
         "surface_points",
         "lost_surface",
+        "fold_bucket_degrees",
+        "fold_histogram",
+        "fold_max_degrees",
+        "fold_mean_degrees",
+        "folded_triangles",
+        "folded_share",
+        "folds_near_creases",
+        "fold_no_gradient",
     ] {
         assert!(v.get(key).is_some(), "missing {key}: {out}");
     }
     // Every check ran: the torus has no defect and loses nothing.
     assert_eq!(v["crossing_pairs"], 0);
     assert_eq!(v["flipped_triangles"], 0);
+    assert_eq!(v["folded_triangles"], 0);
+    let histogram = v["fold_histogram"].as_array().unwrap();
+    let sum: u64 = histogram.iter().map(|n| n.as_u64().unwrap()).sum();
+    assert_eq!(sum, v["triangles"].as_u64().unwrap());
     assert_eq!(v["lost_surface"], 0.0);
     assert!(v["surface_points"].as_u64().unwrap() > 100);
     assert_eq!(v["mesher"], "kdtree");
@@ -95,6 +107,53 @@ fn quick_checks_skip_the_costly_ones() {
         "{out}"
     );
     assert_eq!(v["flipped_triangles"], 0);
+}
+
+#[test]
+fn mesh_exports_every_mesher() {
+    let dir = std::env::temp_dir().join(format!("kdcontour-meshers-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut triangles = Vec::new();
+    for name in ["kdtree", "octree", "dmc", "marching-cubes"] {
+        let path = dir.join(format!("{name}.obj"));
+        let (code, out, err) = kdcontour(&[
+            "mesh",
+            "--scene",
+            "torus",
+            "--res",
+            "24",
+            "--threshold",
+            "0.1",
+            "--mesher",
+            name,
+            "--json",
+            "--out",
+            path.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{name}: {err}");
+        let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+        assert_eq!(v["mesher"], name);
+        assert_eq!(v["watertight"], true, "{name}: {out}");
+        assert_eq!(v["euler"], 0, "{name}: {out}");
+        // The file holds the mesh the report describes.
+        let text = std::fs::read_to_string(&path).unwrap();
+        let faces = text.lines().filter(|l| l.starts_with("f ")).count() as u64;
+        assert_eq!(faces, v["triangles"].as_u64().unwrap(), "{name}");
+        triangles.push(faces);
+    }
+    // Different meshers, different meshes: the k-d tree is the smallest, the
+    // uniform ones ignore the threshold.
+    assert!(
+        triangles[0] < triangles[1] && triangles[1] < triangles[2],
+        "{triangles:?}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+    let (code, _, err) = kdcontour(&["mesh", "--scene", "torus", "--mesher", "voxels"]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("--mesher must be one of marching-cubes, dmc, octree, kdtree"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -231,6 +290,62 @@ fn compare_prints_four_meshers_and_json_lines() {
         assert_eq!(v["manifold"], true, "{v}");
         assert_eq!(v["euler"], 0, "{v}");
     }
+}
+
+#[test]
+fn an_inside_out_mesh_is_meshed_with_a_warning() {
+    let dir = std::env::temp_dir().join(format!("kdcontour-cli-flip-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (fwd, rev) = (dir.join("torus.obj"), dir.join("reversed.obj"));
+    let (code, _, err) = kdcontour(&[
+        "mesh",
+        "--scene",
+        "torus",
+        "--res",
+        "20",
+        "--quick-checks",
+        "--out",
+        fwd.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    // Every face reversed.
+    let text: String = std::fs::read_to_string(&fwd)
+        .unwrap()
+        .lines()
+        .map(|l| match l.strip_prefix("f ") {
+            Some(f) => {
+                let v: Vec<&str> = f.split_whitespace().collect();
+                format!("f {} {} {}\n", v[0], v[2], v[1])
+            }
+            None => format!("{l}\n"),
+        })
+        .collect();
+    std::fs::write(&rev, text).unwrap();
+    let mut triangles = Vec::new();
+    for (path, warned) in [(&fwd, false), (&rev, true)] {
+        let (code, out, err) = kdcontour(&[
+            "mesh",
+            "--mesh",
+            path.to_str().unwrap(),
+            "--res",
+            "24",
+            "--quick-checks",
+            "--json",
+        ]);
+        assert_eq!(code, 0, "{err}");
+        assert_eq!(
+            err.contains("warning: ") && err.contains("faces inward"),
+            warned,
+            "{err}"
+        );
+        let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+        assert_eq!(v["watertight"], true, "{out}");
+        assert_eq!(v["euler"], 0, "{out}");
+        triangles.push(v["triangles"].as_u64().unwrap());
+    }
+    // The same solid either way.
+    assert_eq!(triangles[0], triangles[1]);
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]

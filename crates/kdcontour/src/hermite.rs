@@ -4,6 +4,7 @@
 //!
 //! Positions are in grid units. A NaN or infinite sample is an error, never a mesh.
 
+use crate::boundary::{self, Boundary, Cap};
 use crate::cell::{edge_index, opposite_face, CellTables, NO_COMP};
 use crate::error::{Error, Result};
 use crate::field::Field;
@@ -318,8 +319,19 @@ impl Hermite {
     /// Samples `field` on `grid` ([`sample`]) and builds its Hermite data
     /// ([`Hermite::new`]); the samples are dropped before returning. Runs on the
     /// calling thread pool (wrap in [`Settings::run`] to honour `settings.threads`).
+    ///
+    /// With [`Boundary::Capped`] and a solid that reaches the grid's faces, the
+    /// data is of the grid grown by one cell of caps ([`crate::boundary`]), and
+    /// [`Hermite::grid`] is that grid.
     pub fn from_field(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Self> {
         let values = sample(field, grid, settings)?;
+        if settings.boundary == Boundary::Capped && boundary::reaches_faces(grid, &values) {
+            let big = boundary::padded(grid);
+            check_grid(&big, settings)?;
+            let values = boundary::pad_values(grid, &values);
+            let cap = Cap { cells: big.cells };
+            return Hermite::build(field, &big, &values, settings, Some(cap));
+        }
         Hermite::new(field, grid, &values, settings)
     }
 
@@ -329,6 +341,17 @@ impl Hermite {
         grid: &Grid,
         values: &[f32],
         settings: &Settings,
+    ) -> Result<Self> {
+        Hermite::build(field, grid, values, settings, None)
+    }
+
+    /// [`Hermite::new`], on a grid whose added corners `cap` marks when capped.
+    fn build(
+        field: &dyn Field,
+        grid: &Grid,
+        values: &[f32],
+        settings: &Settings,
+        cap: Option<Cap>,
     ) -> Result<Self> {
         let tables = CellTables::get();
         let n = grid.cells;
@@ -452,6 +475,15 @@ impl Hermite {
                         let mut g = coord;
                         g[u] += bu;
                         g[v] += bv;
+                        if let Some((point, normal)) = cap.and_then(|c| c.crossing(g, a)) {
+                            out.push(Crossing {
+                                cell: (chunk * 1024 + j) as u32,
+                                edge: e as u8,
+                                point,
+                                normal,
+                            });
+                            continue;
+                        }
                         let mut h = g;
                         h[a] += 1;
                         let mut v0 = values[cidx(g[0], g[1], g[2])];

@@ -50,6 +50,13 @@
 //!   ([`LevelWorld`], 2:1 balanced [`world::Layout`]s), weld into one closed,
 //!   2-manifold, oriented mesh with no skirts, transition cells or overlap: the
 //!   finer side of a level seam conforms to the coarser (see [`world::levels`]).
+//! - **Surfaces that leave the grid** ([`Settings::boundary`], see [`boundary`]):
+//!   by default ([`Boundary::Open`]) the mesh ends half a cell inside the grid's
+//!   faces at every threshold, covering what the uniform mesh covers (nodes the
+//!   surface leaves through stay one cell thick across that face); with
+//!   [`Boundary::Capped`] the solid is cut by the grid's box and closed in its
+//!   faces, so the mesh is watertight and 2-manifold (check it against
+//!   [`boundary::CappedField`]).
 //! - **Determinism**: one thread or many give the identical mesh.
 //! - **Bad input is an [`Error`]**: NaN / infinite samples, empty or oversized grids,
 //!   malformed scene files (with line and column).
@@ -75,7 +82,8 @@
 //!   [`validate`](mod@validate) for what each figure means); the tests record
 //!   today's counts per scene (`tests/geometry.rs`, issue 13).
 //! - Features thinner than a cell are not resolved (the grid decides topology).
-//! - Surfaces that leave the grid are open along the grid's boundary.
+//! - A surface that leaves the grid is open there by default
+//!   ([`Boundary::Open`]); [`Boundary::Capped`] closes it along the grid's faces.
 //! - Next to a coarser chunk a finer chunk follows the coarse contour, so its
 //!   vertices there may stand up to about a cell further from the surface than
 //!   its threshold alone allows; away from level seams each chunk keeps its bound
@@ -88,6 +96,7 @@
 #![allow(clippy::needless_range_loop)]
 #![warn(missing_docs)]
 
+pub mod boundary;
 pub mod budget;
 pub mod cell;
 pub mod comp;
@@ -115,7 +124,7 @@ pub use field::Field;
 pub use grid::Grid;
 pub use kdtree::{BuildStats, KdTree};
 pub use mesh::IndexedMesh;
-pub use settings::{Partition, Settings};
+pub use settings::{Boundary, Partition, Settings};
 pub use validate::{validate, validate_with, Checks, MeshReport};
 pub use world::{ChunkWorld, LevelWorld, Lod};
 

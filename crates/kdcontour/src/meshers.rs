@@ -43,6 +43,11 @@ impl Mesher {
         }
     }
 
+    /// The mesher called `name` (see [`Mesher::name`]).
+    pub fn parse(name: &str) -> Option<Mesher> {
+        Mesher::ALL.into_iter().find(|m| m.name() == name)
+    }
+
     /// Whether the threshold matters.
     pub fn adaptive(self) -> bool {
         matches!(self, Mesher::Octree | Mesher::KdTree)

@@ -30,6 +30,9 @@ pub struct Settings {
     pub root_iterations: u32,
     /// How boxes are split: the paper's k-d tree (default) or the octree baseline.
     pub partition: Partition,
+    /// What a surface that leaves the grid does there: ends open half a cell
+    /// inside (default) or is closed by caps on the grid's faces (see [`Boundary`]).
+    pub boundary: Boundary,
 }
 
 impl Default for Settings {
@@ -39,6 +42,7 @@ impl Default for Settings {
             memory_budget: Budget::DEFAULT,
             root_iterations: 12,
             partition: Partition::KdTree,
+            boundary: Boundary::Open,
         }
     }
 }
@@ -106,4 +110,46 @@ pub enum Partition {
     /// (whole octree cells) may become a leaf. Everything else is shared, so a
     /// comparison measures the partition alone.
     Octree,
+}
+
+/// What a surface that runs out through the grid's faces does there. A surface
+/// closed inside the grid gives the same mesh either way.
+///
+/// Applies to single-grid builds ([`crate::KdTree::build`], [`crate::mesh()`],
+/// [`crate::meshers`]); a chunk world has no grid boundary inside it (its chunks
+/// meet at seams) and ignores it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Boundary {
+    /// The mesh ends where the dual mesh of the grid ends: half a cell inside the
+    /// grid's faces, at every threshold (adaptive meshes keep the boundary cells
+    /// thin across the face, so they cover what the uniform mesh covers). The
+    /// mesh has holes (boundary edges) where the surface leaves the grid. The
+    /// default: it adds nothing the field does not hold, as a terrain or a cut
+    /// through a larger shape wants.
+    #[default]
+    Open,
+    /// The solid is cut by the grid's box and closed along its faces: the mesh is
+    /// the surface of `field ∩ box` (scans cut by the volume's edge, 3-D
+    /// printing), watertight and 2-manifold. The grid is grown by one cell of
+    /// caps on every side ([`crate::boundary`]) when the solid reaches a face.
+    Capped,
+}
+
+impl Boundary {
+    /// The name used on the command line (`open`, `capped`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Boundary::Open => "open",
+            Boundary::Capped => "capped",
+        }
+    }
+
+    /// The boundary called `name` on the command line.
+    pub fn parse(name: &str) -> Option<Boundary> {
+        match name {
+            "open" => Some(Boundary::Open),
+            "capped" => Some(Boundary::Capped),
+            _ => None,
+        }
+    }
 }

@@ -282,7 +282,7 @@ fn the_box_keeps_its_faces_flat_at_every_threshold() {
 }
 
 #[test]
-fn a_bare_plane_loses_its_surface_in_the_adaptive_mesh() {
+fn a_bare_plane_keeps_its_surface_in_the_adaptive_mesh() {
     let field = kdcontour::CsgNode::from_json(r#"{"type":"plane","normal":[0,1,0],"offset":0.1}"#)
         .unwrap()
         .compile()
@@ -293,17 +293,14 @@ fn a_bare_plane_loses_its_surface_in_the_adaptive_mesh() {
     let (_, d) = full(&tree.mesh(-1.0), &field, &grid);
     assert_eq!(d.lost_surface, 0.0, "{d:?}");
     assert!(d.surface_points > 64 * 64);
-    // Today (issue 13): the adaptive mesh has no triangle at all, and all of the
-    // surface is lost.
+    // Adaptive: it was empty (issue 13); the nodes on the grid's faces now stay
+    // one cell thick across them, so the mesh reaches as far as the uniform one.
     let m = tree.mesh(0.01);
-    assert_eq!(m.triangle_count(), 0);
+    assert!(m.triangle_count() > 0);
     let (r, d) = full(&m, &field, &grid);
-    assert!(r.is_closed_manifold());
-    assert_eq!(d.lost_surface, 1.0, "{d:?}");
-    assert_eq!(
-        d.surface_to_mesh_max,
-        kdcontour::validate::DISTANCE_CAP_CELLS
-    );
+    assert!(r.manifold && r.oriented && !r.watertight, "{r:?}");
+    assert_eq!(d.lost_surface, 0.0, "{d:?}");
+    assert!(d.surface_to_mesh_max < 1.0, "{d:?}");
 }
 
 #[test]

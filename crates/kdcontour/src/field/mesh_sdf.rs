@@ -47,19 +47,46 @@ struct Node {
     radius: f32,
 }
 
+impl TriMesh {
+    /// The volume enclosed, by the divergence theorem: positive when the faces
+    /// turn counter-clockwise seen from outside, negative when every face is
+    /// reversed (then the winding number is -1 inside). With holes it is the
+    /// volume of the mesh closed by fans to the origin, whose sign still follows
+    /// the orientation of most of the faces.
+    pub fn signed_volume(&self) -> f64 {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| self.positions[i as usize].as_dvec3());
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum()
+    }
+}
+
 /// A signed distance field of a triangle mesh (negative inside).
 pub struct MeshSdf {
     v: Vec<Vec3>,
     tris: Vec<[u32; 3]>,
     nodes: Vec<Node>,
     bounds: (Vec3, Vec3),
+    inside_out: bool,
 }
 
 impl MeshSdf {
     /// Builds the BVH. The mesh should be oriented counter-clockwise seen from
-    /// outside; holes are tolerated.
+    /// outside; holes are tolerated. A mesh turned inside out (every face
+    /// reversed: a negative [`TriMesh::signed_volume`]) would have winding number
+    /// -1 inside, read as outside everywhere, and mesh to nothing: its faces are
+    /// turned back, and [`MeshSdf::inside_out`] says so (callers should warn).
     pub fn new(mesh: &TriMesh) -> Self {
+        let inside_out = mesh.signed_volume() < 0.0;
         let mut tris = mesh.triangles.clone();
+        if inside_out {
+            for t in &mut tris {
+                t.swap(1, 2);
+            }
+        }
         let v = mesh.positions.clone();
         let mut nodes = Vec::new();
         let n = tris.len();
@@ -69,7 +96,13 @@ impl MeshSdf {
             v,
             tris,
             nodes,
+            inside_out,
         }
+    }
+
+    /// Whether the input mesh was inside out and its faces were turned back.
+    pub fn inside_out(&self) -> bool {
+        self.inside_out
     }
 
     /// Bytes a field over a mesh of `vertices` vertices and `triangles` triangles
@@ -342,6 +375,22 @@ mod tests {
         assert!((sdf.value(Vec3::new(1.0, 0.0, 0.0)) - 0.5).abs() < 1e-6);
         assert!((sdf.winding_number(Vec3::new(0.1, 0.2, 0.0)) - 1.0).abs() < 1e-3);
         assert!(sdf.winding_number(Vec3::new(3.0, 0.2, 0.0)).abs() < 1e-3);
+    }
+
+    #[test]
+    fn an_inside_out_mesh_is_turned_back() {
+        let mut m = cube();
+        assert!((m.signed_volume() - 1.0).abs() < 1e-9);
+        assert!(!MeshSdf::new(&m).inside_out());
+        for t in &mut m.triangles {
+            t.swap(0, 1);
+        }
+        assert!((m.signed_volume() + 1.0).abs() < 1e-9);
+        let sdf = MeshSdf::new(&m);
+        assert!(sdf.inside_out());
+        assert!((sdf.winding_number(Vec3::new(0.1, 0.2, 0.0)) - 1.0).abs() < 1e-3);
+        assert!((sdf.value(Vec3::ZERO) + 0.5).abs() < 1e-6);
+        assert!(sdf.value(Vec3::new(1.0, 0.0, 0.0)) > 0.0);
     }
 
     #[test]

@@ -30,6 +30,9 @@ pub struct Input {
     /// for scenes): taken off the budget of whatever meshes it
     /// ([`Budget::less`]), so one budget covers the whole command.
     pub held_bytes: u64,
+    /// What the loader fixed and the user should hear about (an inside-out mesh
+    /// turned outward).
+    pub warnings: Vec<String>,
 }
 
 /// The largest scene file read (64 MiB).
@@ -45,6 +48,7 @@ impl Input {
             bounds: None,
             sampled: false,
             held_bytes: 0,
+            warnings: Vec::new(),
         })
     }
 
@@ -60,6 +64,7 @@ impl Input {
             bounds: None,
             sampled: false,
             held_bytes: 0,
+            warnings: Vec::new(),
         })
     }
 
@@ -72,11 +77,13 @@ impl Input {
             field: Box::new(volume),
             bounds: Some(bounds),
             sampled: true,
+            warnings: Vec::new(),
         }
     }
 
     /// An `.obj` or `.ply` triangle mesh as a signed distance field, bounded by its
-    /// vertices, within the default budget (see [`Input::mesh_within`]).
+    /// vertices, within the default budget (see [`Input::mesh_within`]). An
+    /// inside-out mesh is turned outward, with a warning ([`MeshSdf::new`]).
     pub fn mesh(path: &Path) -> Result<Input> {
         Input::mesh_within(path, Budget::DEFAULT)
     }
@@ -87,12 +94,20 @@ impl Input {
     pub fn mesh_within(path: &Path, budget: Budget) -> Result<Input> {
         let sdf = MeshSdf::new(&load_mesh_within(path, budget)?);
         let bounds = sdf.bounds();
+        let mut warnings = Vec::new();
+        if sdf.inside_out() {
+            warnings.push(format!(
+                "{}: every face of the mesh faces inward (its enclosed volume is negative), so it was meshed turned outward",
+                path.display()
+            ));
+        }
         Ok(Input {
             name: path.display().to_string(),
             held_bytes: sdf.held_bytes(),
             field: Box::new(sdf),
             bounds: Some(bounds),
             sampled: false,
+            warnings,
         })
     }
 

@@ -34,6 +34,7 @@ pub fn load(target: &str, data: &[u8]) -> Result<Input, String> {
         bounds,
         sampled,
         held_bytes: 0,
+        warnings: Vec::new(),
     };
     match target {
         "scene_json" => {

@@ -12,6 +12,7 @@ use super::cluster::cluster;
 use super::fold::refuse_folding_leaves;
 use super::split::kd_split;
 use super::{BuildStats, Comp, KdNode, KdTree, CELL, NONE};
+use crate::boundary::open_faces;
 use crate::cell::{edge_corners, CellTables};
 use crate::error::Result;
 use crate::field::Field;
@@ -91,6 +92,9 @@ pub(super) struct Ctx<'a> {
     pub(super) cell_qef: Vec<Qef>,
     /// The Dual Marching Cubes tables.
     pub(super) tables: &'static CellTables,
+    /// Per active cell: the grid faces it lies on that the surface crosses there
+    /// ([`crate::boundary::open_faces`]).
+    pub(super) open: Vec<u8>,
 }
 
 impl Ctx<'_> {
@@ -137,11 +141,17 @@ pub fn build_in(
             q
         })
         .collect();
+    let open = h
+        .cells
+        .par_iter()
+        .map(|c| open_faces(h.grid.cells, c.coord, c.config))
+        .collect();
     let ctx = Ctx {
         h,
         partition,
         cell_qef,
         tables,
+        open,
     };
     // At most about three nodes and components per active cell (measured: 2.3 on
     // disk_pole and terrain at 128, 3.1 on the sphere at 64, 3.2 on a 32³ terrain
@@ -224,7 +234,12 @@ fn build_node(
         return cell_leaf(ctx, arena, stack, ids[0], min, max);
     }
 
+    // Faces of the grid the surface leaves through, where this node is more than
+    // a cell thick: it may not be a leaf (its mesh would stop short of the
+    // boundary cells'), and the k-d tree splits the boundary slab off first.
+    let thick = thick_open_faces(ctx, ids, min, max);
     let (axis, split, ltotal, rtotal) = match ctx.partition {
+        Partition::KdTree if thick != 0 => slab_split(ctx, ids, min, max, thick),
         Partition::KdTree => kd_split(ctx, ids, min, max, &total),
         Partition::Octree => {
             // Midpoint, cycling x, y, z (an axis one cell thick is skipped).
@@ -309,7 +324,7 @@ fn build_node(
         comp_count: 0,
         split,
         clusterable: false,
-        leaf_ok: ctx.partition == Partition::KdTree || depth.is_multiple_of(3),
+        leaf_ok: thick == 0 && (ctx.partition == Partition::KdTree || depth.is_multiple_of(3)),
         comp_start: arena.comps.len() as u32,
         error: f32::INFINITY,
     };
@@ -322,6 +337,51 @@ fn build_node(
     arena.nodes.push(node);
     arena.edges.push(edges);
     ((arena.nodes.len() - 1) as u32, count)
+}
+
+/// The faces of the grid (bits as [`open_faces`]) that the node `min..max` lies
+/// on, that the surface of its cells `ids` crosses, and across which it is more
+/// than one cell thick.
+fn thick_open_faces(ctx: &Ctx, ids: &[u32], min: [u16; 3], max: [u16; 3]) -> u8 {
+    let n = ctx.h.grid.cells;
+    let mut faces = 0u8;
+    for a in 0..3 {
+        if max[a] - min[a] > 1 {
+            faces |= ((min[a] == 0) as u8) << (2 * a);
+            faces |= ((max[a] as u32 == n[a]) as u8) << (2 * a + 1);
+        }
+    }
+    if faces == 0 {
+        return 0;
+    }
+    ids.iter().fold(0u8, |acc, &id| acc | ctx.open[id as usize]) & faces
+}
+
+/// The split of a node thick across open faces `thick`: the one-cell slab along
+/// the first of them, and the QEFs of the two halves.
+fn slab_split(
+    ctx: &Ctx,
+    ids: &[u32],
+    min: [u16; 3],
+    max: [u16; 3],
+    thick: u8,
+) -> (usize, u16, Qef, Qef) {
+    let f = thick.trailing_zeros() as usize;
+    let axis = f / 2;
+    let split = if f.is_multiple_of(2) {
+        min[axis] + 1
+    } else {
+        max[axis] - 1
+    };
+    let (mut left, mut right) = (Qef::ZERO, Qef::ZERO);
+    for &id in ids {
+        if ctx.h.cells[id as usize].coord[axis] < split {
+            left += &ctx.cell_qef[id as usize];
+        } else {
+            right += &ctx.cell_qef[id as usize];
+        }
+    }
+    (axis, split, left, right)
 }
 
 /// Makes the leaf of active cell `id`: one component per patch, each at its

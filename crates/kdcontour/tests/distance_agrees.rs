@@ -1,0 +1,257 @@
+//! Issue 13's must-hold: the two-sided distance `validate` reports agrees with a
+//! brute-force one within 10% (or 0.02 cells), on every scene, volumes included.
+//!
+//! The brute force shares nothing with the checker: the surface is a uniform Dual
+//! Marching Cubes mesh four times finer (its vertices are crossings found on the
+//! field and QEF minimisers, so sharp edges stay sharp), both meshes are sampled
+//! densely (a barycentric lattice a sixth of a cell apart on every triangle), and
+//! every sample's distance to the other mesh is the exact point-triangle distance
+//! to its nearest triangle, found through a bucket grid.
+
+use glam::{UVec3, Vec3};
+use kdcontour::field::volume::{Inside, SampledVolume};
+use kdcontour::validate::{validate_with, Checks};
+use kdcontour::{scenes, Field, Grid, IndexedMesh, KdTree, Settings};
+
+/// How many times finer the reference surface is than the mesh.
+const FINER: u32 = 4;
+
+/// Triangles of a mesh bucketed on a uniform grid of `size` world units.
+struct Buckets<'a> {
+    mesh: &'a IndexedMesh,
+    lo: Vec3,
+    size: f32,
+    dims: UVec3,
+    cells: Vec<Vec<u32>>,
+}
+
+impl<'a> Buckets<'a> {
+    fn new(mesh: &'a IndexedMesh, size: f32) -> Self {
+        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for p in &mesh.positions {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        let dims = ((hi - lo) / size).floor().as_uvec3() + UVec3::ONE;
+        let mut cells = vec![Vec::new(); (dims.x * dims.y * dims.z) as usize];
+        for (t, tri) in mesh.indices.chunks_exact(3).enumerate() {
+            let p = [0, 1, 2].map(|i| mesh.positions[tri[i] as usize]);
+            let a = ((p[0].min(p[1]).min(p[2]) - lo) / size).as_uvec3();
+            let b = ((p[0].max(p[1]).max(p[2]) - lo) / size)
+                .as_uvec3()
+                .min(dims - 1);
+            for z in a.z..=b.z {
+                for y in a.y..=b.y {
+                    for x in a.x..=b.x {
+                        cells[(x + dims.x * (y + dims.y * z)) as usize].push(t as u32);
+                    }
+                }
+            }
+        }
+        Buckets {
+            mesh,
+            lo,
+            size,
+            dims,
+            cells,
+        }
+    }
+
+    fn triangle(&self, t: u32) -> [Vec3; 3] {
+        let i = 3 * t as usize;
+        [0, 1, 2].map(|k| self.mesh.positions[self.mesh.indices[i + k] as usize])
+    }
+
+    /// Distance from `q` to the nearest triangle: rings of buckets around `q`'s
+    /// until the ring is farther than the best found.
+    fn distance(&self, q: Vec3) -> f32 {
+        let c = ((q - self.lo) / self.size).floor().as_ivec3();
+        let mut best = f32::INFINITY;
+        for ring in 0i32.. {
+            if (ring - 1) as f32 * self.size > best || ring as u32 > self.dims.max_element() + 1 {
+                break;
+            }
+            for z in -ring..=ring {
+                for y in -ring..=ring {
+                    for x in -ring..=ring {
+                        if x.abs().max(y.abs()).max(z.abs()) != ring {
+                            continue;
+                        }
+                        let b = c + glam::IVec3::new(x, y, z);
+                        if b.min_element() < 0 || b.cmpge(self.dims.as_ivec3()).any() {
+                            continue;
+                        }
+                        let i = b.x as u32 + self.dims.x * (b.y as u32 + self.dims.y * b.z as u32);
+                        for &t in &self.cells[i as usize] {
+                            best = best.min(point_triangle(q, self.triangle(t)));
+                        }
+                    }
+                }
+            }
+        }
+        best
+    }
+}
+
+/// Distance from `q` to triangle `t` (region by region, Ericson's closest point).
+fn point_triangle(q: Vec3, [a, b, c]: [Vec3; 3]) -> f32 {
+    let (ab, ac, ap) = (b - a, c - a, q - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return q.distance(a);
+    }
+    let bp = q - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return q.distance(b);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return q.distance(a + ab * (d1 / (d1 - d3)));
+    }
+    let cp = q - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return q.distance(c);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return q.distance(a + ac * (d2 / (d2 - d6)));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        return q.distance(b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    q.distance(a + ab * (vb * denom) + ac * (vc * denom))
+}
+
+/// Points on every triangle of `m`, at most `step` apart.
+fn samples(m: &IndexedMesh, step: f32) -> Vec<Vec3> {
+    let mut out = Vec::new();
+    for t in m.indices.chunks_exact(3) {
+        let [a, b, c] = [0, 1, 2].map(|i| m.positions[t[i] as usize]);
+        let longest = a.distance(b).max(b.distance(c)).max(c.distance(a));
+        let n = ((longest / step).ceil() as usize).max(1);
+        for i in 0..=n {
+            for j in 0..=n - i {
+                out.push(a + (b - a) * (i as f32 / n as f32) + (c - a) * (j as f32 / n as f32));
+            }
+        }
+    }
+    out
+}
+
+/// The largest distance from points of `from` to the mesh `to`, in cells.
+fn one_side(from: &IndexedMesh, to: &IndexedMesh, cell: f32) -> f32 {
+    let buckets = Buckets::new(to, cell);
+    samples(from, cell / 6.0)
+        .iter()
+        .map(|&q| buckets.distance(q))
+        .fold(0f32, f32::max)
+        / cell
+}
+
+/// Checks the reported distances of `field`'s meshes on `grid` (a cube of `res`
+/// cells) against the brute force, at a uniform and an adaptive threshold.
+fn agrees(name: &str, field: &dyn Field, grid: Grid) {
+    let fine_grid = Grid {
+        cell_size: grid.cell_size / FINER as f32,
+        cells: grid.cells * FINER,
+        ..grid
+    };
+    let surface = KdTree::build(field, &fine_grid, &Settings::default())
+        .unwrap()
+        .mesh(-1.0);
+    let tree = KdTree::build(field, &grid, &Settings::default()).unwrap();
+    for e in [-1.0, 0.1] {
+        let mesh = tree.mesh(e);
+        let r = validate_with(&mesh, &Checks::all(field, &grid));
+        let d = r.distance.expect("requested");
+        let m2s = one_side(&mesh, &surface, grid.cell_size);
+        let s2m = one_side(&surface, &mesh, grid.cell_size);
+        println!(
+            "{name:<12} e {e:>4}: mesh->surface {:.4} brute {m2s:.4}, surface->mesh {:.4} brute {s2m:.4}",
+            d.mesh_to_surface_max, d.surface_to_mesh_max
+        );
+        let close = |a: f32, b: f32| (a - b).abs() <= (0.1 * b).max(0.02);
+        assert!(
+            close(d.mesh_to_surface_max, m2s),
+            "{name} e {e}: {d:?} vs brute {m2s}"
+        );
+        assert!(
+            close(d.surface_to_mesh_max, s2m),
+            "{name} e {e}: {d:?} vs brute {s2m}"
+        );
+    }
+}
+
+/// A volume of 32^3 voxels: a bumpy ball, smooth or segmented (100 in, 0 out: the
+/// trilinear gradient is zero wherever eight voxels agree).
+fn volume(segmented: bool) -> SampledVolume {
+    let n = 32u32;
+    let mut data = Vec::new();
+    for z in 0..n {
+        for y in 0..n {
+            for x in 0..n {
+                let p = UVec3::new(x, y, z).as_vec3() - Vec3::splat(15.3);
+                let r = 10.0 + 1.5 * (p.x * 0.4).sin() * (p.y * 0.3).cos();
+                let v = r - p.length();
+                data.push(if segmented {
+                    100.0 * (v > 0.0) as u8 as f32
+                } else {
+                    v
+                });
+            }
+        }
+    }
+    SampledVolume {
+        dims: UVec3::splat(n),
+        spacing: Vec3::ONE,
+        origin: Vec3::ZERO,
+        data,
+        iso: if segmented { 50.0 } else { 0.0 },
+        inside: Inside::Above,
+    }
+}
+
+fn agrees_on_volume(segmented: bool) {
+    let vol = volume(segmented);
+    let (lo, hi) = vol.bounds();
+    agrees(
+        &format!("volume, segmented {segmented}"),
+        &vol,
+        Grid::fit(lo, hi, 24),
+    );
+}
+
+#[test]
+fn reported_distance_agrees_with_brute_force_where_it_holds_today() {
+    for name in ["sphere", "torus"] {
+        let scene = scenes::scene(name).unwrap();
+        agrees(name, &*scene.field, Grid::cube(1.0, 24));
+    }
+    agrees_on_volume(false);
+}
+
+/// The must-hold on every scene and both volumes. Fails today (measured at res
+/// 24, thresholds -1 and 0.1): the surface-to-mesh maximum is under-reported on
+/// thin_plates, anisotropic (5.4 against 7.2 cells: features thinner than the
+/// grid), gyroid, terrain and csg_mix (0.34 against 0.38), because the checker's
+/// surface points are the crossings of the sampling grid (plus a three times finer
+/// lattice in cells with a sign change); the mesh-to-surface maximum is
+/// over-reported where the search along the gradient finds a farther crossing
+/// (segmented volume 0.50 against 0.37, gyroid, caves); on `box` at 0.1 the brute
+/// force's own reference (a finer uniform mesh, 0.04 cells off at the box's
+/// corners) is too coarse for the 0.02-cell bar. Slow (minutes): run with
+/// `--ignored --release`.
+#[test]
+#[ignore = "fails today on 9 scenes and the segmented volume (issue 13): see the doc comment"]
+fn reported_distance_agrees_with_brute_force_on_every_scene() {
+    for name in scenes::SCENES {
+        let scene = scenes::scene(name).unwrap();
+        agrees(name, &*scene.field, Grid::cube(1.0, 24));
+    }
+    agrees_on_volume(false);
+    agrees_on_volume(true);
+}
