@@ -42,7 +42,11 @@
 //! (which then holds a single segment).
 //!
 //! Chunks whose neighbourhood ([`Neighbourhood`]) changes with a new layout are
-//! rebuilt: [`LevelWorld::set_layout`] lists them.
+//! rebuilt: [`LevelWorld::set_layout`] lists them. Each chunk keeps the field's
+//! samples it was built from ([`LevelWorld::keep_samples`]), so such a rebuild
+//! applies the rules above to its kept samples instead of sampling the field
+//! again (the rules still read the field past the chunk's grid, and the crossings
+//! are found again); an edit drops the samples it reaches ([`LevelWorld::edited`]).
 //!
 //! ## Seam ownership
 //! - A **face seam** (two chunks whose faces overlap) belongs to the finer chunk;
