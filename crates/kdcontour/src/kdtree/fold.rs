@@ -62,16 +62,23 @@ struct Rung {
 }
 
 impl Rung {
-    /// The rung of component `local` of tree node `node`.
-    fn of(tree: &KdTree, node: u32, local: u8, error: f32) -> Rung {
-        let n = &tree.nodes[node as usize];
+    /// The rung of component `local` of tree node `node`, its vertex not yet
+    /// looked up ([`Rung::place`]): most edges never test a polygon.
+    fn bare(node: u32, local: u8, error: f32) -> Rung {
         Rung {
             node,
             local,
             error,
-            pos: tree.comp_position(node, local),
-            normal: tree.comps[(n.comp_start + local as u32) as usize].normal(),
+            pos: Vec3::ZERO,
+            normal: Vec3::ZERO,
         }
+    }
+
+    /// Looks up the vertex and normal of a tree node's rung.
+    fn place(&mut self, tree: &KdTree) {
+        let n = &tree.nodes[self.node as usize];
+        self.pos = tree.comp_position(self.node, self.local);
+        self.normal = tree.comps[(n.comp_start + self.local as u32) as usize].normal();
     }
 }
 
@@ -84,18 +91,24 @@ pub(super) fn refuse_folding_leaves(tree: &mut KdTree, h: &Hermite) -> usize {
     let edges = crossing_edges(tree);
     let h = &Halo::new(h);
     // The first pass visits every edge and learns its four cells; later ones only
-    // the edges below a node the pass before refused.
+    // the edges below a node the pass before refused. Refusals are rare: the few
+    // edges that refuse share one list.
     let t: &KdTree = tree;
-    let first: Vec<([u32; 4], Vec<u32>)> = edges
+    let found = std::sync::Mutex::new(Vec::new());
+    let cells: Vec<[u32; 4]> = edges
         .par_iter()
         .map_init(Scratch::default, |s, e| {
-            let mut marks = Vec::new();
-            let cells = check_edge(t, h, *e, s, &mut marks);
-            (cells, marks)
+            let cells = check_edge(t, h, *e, s);
+            if !s.refused.is_empty() {
+                found
+                    .lock()
+                    .expect("no thread panics holding it")
+                    .append(&mut s.refused);
+            }
+            cells
         })
         .collect();
-    let cells: Vec<[u32; 4]> = first.iter().map(|f| f.0).collect();
-    let mut marks: Vec<u32> = first.into_iter().flat_map(|f| f.1).collect();
+    let mut marks = found.into_inner().expect("no thread panicked holding it");
     let mut refused = 0;
     let mut dirty = vec![false; tree.nodes.len()];
     loop {
@@ -116,9 +129,8 @@ pub(super) fn refuse_folding_leaves(tree: &mut KdTree, h: &Hermite) -> usize {
             .into_par_iter()
             .filter(|&i| cells[i].iter().any(|&c| c != NONE && dirty[c as usize]))
             .map_init(Scratch::default, |s, i| {
-                let mut marks = Vec::new();
-                check_edge(t, h, edges[i], s, &mut marks);
-                marks
+                check_edge(t, h, edges[i], s);
+                std::mem::take(&mut s.refused)
             })
             .flatten_iter()
             .collect();
@@ -196,9 +208,10 @@ impl<'a> Halo<'a> {
         Halo { h }
     }
 
-    /// The rung of the patch of cell `c` that edge `edge` belongs to, standing in
-    /// quadrant `q`; `None` when the data has no such cell.
-    fn rung(&self, c: [u32; 3], edge: usize, q: usize) -> Option<Rung> {
+    /// The index of cell `c` in the data and the patch of it that edge `edge`
+    /// belongs to; `None` when the data has no such cell or the edge does not
+    /// cross in it.
+    fn find(&self, c: [u32; 3], edge: usize) -> Option<(usize, u8)> {
         let key = (c[2], c[1], c[0]);
         let i = self
             .h
@@ -209,18 +222,22 @@ impl<'a> Halo<'a> {
             .ok()?;
         let cell = self.h.cells[i];
         let local = CellTables::get().cell(cell.config, cell.mask).edge_comp[edge];
-        if local == NO_COMP {
-            return None;
-        }
+        (local != NO_COMP).then_some((i, local))
+    }
+
+    /// The rung of patch `local` of cell `i` (from [`Halo::find`]), standing in
+    /// quadrant `q`.
+    fn rung(&self, (i, local): (usize, u8), q: usize) -> Rung {
+        let cell = self.h.cells[i];
         let p = cell.patch_base as usize + local as usize;
         let lo = Vec3::from_array(cell.coord.map(|v| v as f32));
-        Some(Rung {
+        Rung {
             node: NONE - q as u32,
             local,
             error: f32::NEG_INFINITY,
             pos: self.h.patch_qef[p].solve(lo, lo + Vec3::ONE).0,
             normal: self.h.patch_normal[p].normalize_or_zero(),
-        })
+        }
     }
 }
 
@@ -231,6 +248,8 @@ struct Scratch {
     paths: [Vec<u32>; 4],
     ladders: [Vec<Rung>; 4],
     errors: Vec<f32>,
+    /// The nodes this edge refused.
+    refused: Vec<u32>,
 }
 
 /// Sets `path` to the root-to-cell path of `cell` and returns the cell's node, or
@@ -277,7 +296,7 @@ fn climb(tree: &KdTree, path: &[u32], shared: usize, edge: usize, rungs: &mut Ve
     if local == NO_COMP {
         return false;
     }
-    rungs.push(Rung::of(tree, n, local, f32::NEG_INFINITY));
+    rungs.push(Rung::bare(n, local, f32::NEG_INFINITY));
     let mut child = n;
     for &p in path[shared.min(path.len() - 1)..path.len() - 1]
         .iter()
@@ -289,7 +308,7 @@ fn climb(tree: &KdTree, path: &[u32], shared: usize, edge: usize, rungs: &mut Ve
         }
         local = tree.comps[(tree.nodes[child as usize].comp_start + local as u32) as usize].parent;
         if node.leaf_ok {
-            rungs.push(Rung::of(tree, p, local, node.error));
+            rungs.push(Rung::bare(p, local, node.error));
         }
         child = p;
     }
@@ -297,20 +316,16 @@ fn climb(tree: &KdTree, path: &[u32], shared: usize, edge: usize, rungs: &mut Ve
 }
 
 /// Sweeps the thresholds at which the polygon of `edge` changes, pushing onto
-/// `refused` the nodes refused to keep every one of them facing the right way.
-/// Returns the edge's four cells (all [`NONE`] when one is not in the tree).
-fn check_edge(
-    tree: &KdTree,
-    halo: &Halo,
-    edge: Edge,
-    s: &mut Scratch,
-    refused: &mut Vec<u32>,
-) -> [u32; 4] {
+/// `s.refused` the nodes refused to keep every one of them facing the right way.
+/// Returns the edge's four cells, or all [`NONE`] when one is not in the tree or
+/// when no corner can ever be a clustered node (refusals only take rungs away, so
+/// such an edge never needs looking at again).
+fn check_edge(tree: &KdTree, halo: &Halo, edge: Edge, s: &mut Scratch) -> [u32; 4] {
     let Edge { line, d } = edge;
     let (u, v) = ((d + 1) % 3, (d + 2) % 3);
     let mut cells = [NONE; 4];
     let root = &tree.nodes[tree.root as usize];
-    let mut halo_rungs = [None; 4];
+    let mut halo_cells = [None; 4];
     for (q, &(qu, qv)) in QUADRANT.iter().enumerate() {
         let mut c = line;
         // Wrapping: a cell below the grid's side is no cell at all.
@@ -322,8 +337,8 @@ fn check_edge(
                 None => return [NONE; 4],
             }
         } else {
-            match halo.rung(c, edge_index(d, 1 - qu, 1 - qv), q) {
-                Some(r) => halo_rungs[q] = Some(r),
+            match halo.find(c, edge_index(d, 1 - qu, 1 - qv)) {
+                Some(found) => halo_cells[q] = Some(found),
                 None => return [NONE; 4],
             }
         }
@@ -341,9 +356,8 @@ fn check_edge(
             .unwrap_or(0)
     };
     for (q, &(qu, qv)) in QUADRANT.iter().enumerate() {
-        if let Some(r) = halo_rungs[q] {
+        if halo_cells[q].is_some() {
             s.ladders[q].clear();
-            s.ladders[q].push(r);
         } else if !climb(
             tree,
             &s.paths[q],
@@ -352,6 +366,17 @@ fn check_edge(
             &mut s.ladders[q],
         ) {
             return [NONE; 4];
+        }
+    }
+    // No clustered node at any corner: the polygon is Dual Marching Cubes' at
+    // every threshold, nothing to refuse.
+    if s.ladders.iter().all(|l| l.len() <= 1) {
+        return [NONE; 4];
+    }
+    for (q, l) in s.ladders.iter_mut().enumerate() {
+        match halo_cells[q] {
+            Some(found) => l.push(halo.rung(found, q)),
+            None => l.iter_mut().for_each(|r| r.place(tree)),
         }
     }
     let inside_low = !tree.is_outside(line);
@@ -369,6 +394,11 @@ fn check_edge(
             while at[q] + 1 < l.len() && l[at[q] + 1].error <= t {
                 at[q] += 1;
             }
+        }
+        // No corner climbed (its rung was refused): the polygon is the one
+        // already looked at.
+        if at == before {
+            continue;
         }
         // The corners that climbed at this threshold (to the merge that may fold).
         let mut climbed = [0, 1, 2, 3].map(|q| at[q] != before[q]);
@@ -399,7 +429,7 @@ fn check_edge(
             climbed = [false; 4];
             let big = leaves[q];
             let big = big.node;
-            refused.push(big);
+            s.refused.push(big);
             for (q, l) in s.ladders.iter_mut().enumerate() {
                 if l.iter().any(|r| r.node == big) {
                     l.retain(|r| r.node != big);
