@@ -110,7 +110,8 @@ pub(super) fn refuse_folding_leaves(tree: &mut KdTree, h: &Hermite) -> usize {
         .collect();
     let mut marks = found.into_inner().expect("no thread panicked holding it");
     let mut refused = 0;
-    let mut dirty = vec![false; tree.nodes.len()];
+    // Per cell, the deepest node refused in the last pass above it.
+    let mut under = vec![NONE; tree.nodes.len()];
     loop {
         marks.sort_unstable();
         marks.dedup();
@@ -118,16 +119,18 @@ pub(super) fn refuse_folding_leaves(tree: &mut KdTree, h: &Hermite) -> usize {
             return refused;
         }
         refused += marks.len();
-        dirty.fill(false);
+        under.fill(NONE);
+        // Outer nodes first (a child's box is smaller), so the deepest one wins.
+        marks.sort_by_key(|&m| std::cmp::Reverse(volume(&tree.nodes[m as usize])));
         for &m in &marks {
             tree.nodes[m as usize].leaf_ok = false;
-            mark_cells(tree, m, &mut dirty);
+            mark_cells(tree, m, &mut under);
         }
         let t: &KdTree = tree;
-        let dirty = &dirty;
+        let under = &under;
         marks = (0..edges.len())
             .into_par_iter()
-            .filter(|&i| cells[i].iter().any(|&c| c != NONE && dirty[c as usize]))
+            .filter(|&i| touches_refused(&cells[i], under))
             .map_init(Scratch::default, |s, i| {
                 check_edge(t, h, edges[i], s);
                 std::mem::take(&mut s.refused)
@@ -137,13 +140,22 @@ pub(super) fn refuse_folding_leaves(tree: &mut KdTree, h: &Hermite) -> usize {
     }
 }
 
-/// Sets `dirty` on every cell leaf below node `n`.
-fn mark_cells(tree: &KdTree, n: u32, dirty: &mut [bool]) {
+/// Whether a node refused in the last pass can be a corner of the polygons of the
+/// edge around `cells`: a refused node above all four cells is above the node
+/// they share, where the polygon has collapsed, so only an edge across a refused
+/// node's side (or with a cell outside the tree) sees it.
+fn touches_refused(cells: &[u32; 4], under: &[u32]) -> bool {
+    let deepest = cells.map(|c| (c != NONE).then(|| under[c as usize]));
+    deepest.iter().any(|m| m.is_some_and(|m| m != NONE)) && deepest.iter().any(|m| *m != deepest[0])
+}
+
+/// Sets `under` to `n` on every cell leaf below node `n`.
+fn mark_cells(tree: &KdTree, n: u32, under: &mut [u32]) {
     let mut stack = vec![n];
     while let Some(m) = stack.pop() {
         let node = &tree.nodes[m as usize];
         if node.axis == CELL {
-            dirty[m as usize] = true;
+            under[m as usize] = n;
         } else {
             stack.extend(node.children.iter().filter(|&&c| c != NONE));
         }
