@@ -264,28 +264,39 @@ struct Scratch {
     refused: Vec<u32>,
 }
 
-/// Sets `path` to the root-to-cell path of `cell` and returns the cell's node, or
-/// `None` when the cell is not in the tree. The path already there (of a
-/// neighbouring cell, most often) keeps the top it shares.
-fn descend(tree: &KdTree, cell: [u32; 3], path: &mut Vec<u32>) -> Option<u32> {
-    let child = |n: u32| {
+/// Sets `path` to the root-to-cell path of `cell`, a cell in the tree's box, and
+/// returns the cell's node, or `None` when the tree has no such cell. It starts
+/// from the deepest node of `near` (a root-to-node path: a neighbouring cell's,
+/// most often) whose box holds the cell; `near` may be `path` itself.
+fn descend(
+    tree: &KdTree,
+    cell: [u32; 3],
+    near: Option<&[u32]>,
+    path: &mut Vec<u32>,
+) -> Option<u32> {
+    let holds = |n: u32| {
         let node = &tree.nodes[n as usize];
-        node.children[(cell[node.axis as usize] >= node.split as u32) as usize]
+        (0..3).all(|a| node.min[a] as u32 <= cell[a] && cell[a] < node.max[a] as u32)
     };
-    let mut keep = 1;
-    while keep < path.len() && child(path[keep - 1]) == path[keep] {
-        keep += 1;
+    match near {
+        Some(near) => {
+            let keep = near.iter().rposition(|&n| holds(n)).map_or(0, |j| j + 1);
+            path.clear();
+            path.extend_from_slice(&near[..keep]);
+        }
+        None => {
+            let keep = path.iter().rposition(|&n| holds(n)).map_or(0, |j| j + 1);
+            path.truncate(keep);
+        }
     }
     if path.first() != Some(&tree.root) {
-        keep = 0;
-    }
-    path.truncate(keep);
-    if path.is_empty() {
+        path.clear();
         path.push(tree.root);
     }
     let mut n = *path.last().expect("the root at least");
     while tree.nodes[n as usize].axis != CELL {
-        n = child(n);
+        let node = &tree.nodes[n as usize];
+        n = node.children[(cell[node.axis as usize] >= node.split as u32) as usize];
         if n == NONE {
             path.clear();
             return None;
@@ -338,13 +349,23 @@ fn check_edge(tree: &KdTree, halo: &Halo, edge: Edge, s: &mut Scratch) -> [u32; 
     let mut cells = [NONE; 4];
     let root = &tree.nodes[tree.root as usize];
     let mut halo_cells = [None; 4];
+    // The first quadrant in the tree: the others start from its path.
+    let mut anchor: Option<usize> = None;
     for (q, &(qu, qv)) in QUADRANT.iter().enumerate() {
         let mut c = line;
         // Wrapping: a cell below the grid's side is no cell at all.
         c[u] = (line[u] + qu).wrapping_sub(1);
         c[v] = (line[v] + qv).wrapping_sub(1);
         if (0..3).all(|a| c[a] >= root.min[a] as u32 && c[a] < root.max[a] as u32) {
-            match descend(tree, c, &mut s.paths[q]) {
+            let found = match anchor {
+                None => descend(tree, c, None, &mut s.paths[q]),
+                Some(a) => {
+                    let (near, rest) = s.paths[..].split_at_mut(q);
+                    descend(tree, c, Some(near[a].as_slice()), &mut rest[0])
+                }
+            };
+            anchor.get_or_insert(q);
+            match found {
                 Some(n) => cells[q] = n,
                 None => return [NONE; 4],
             }
