@@ -62,16 +62,23 @@ struct Rung {
 }
 
 impl Rung {
-    /// The rung of component `local` of tree node `node`.
-    fn of(tree: &KdTree, node: u32, local: u8, error: f32) -> Rung {
-        let n = &tree.nodes[node as usize];
+    /// The rung of component `local` of tree node `node`, its vertex not yet
+    /// looked up ([`Rung::place`]): most edges never test a polygon.
+    fn bare(node: u32, local: u8, error: f32) -> Rung {
         Rung {
             node,
             local,
             error,
-            pos: tree.comp_position(node, local),
-            normal: tree.comps[(n.comp_start + local as u32) as usize].normal(),
+            pos: Vec3::ZERO,
+            normal: Vec3::ZERO,
         }
+    }
+
+    /// Looks up the vertex and normal of a tree node's rung.
+    fn place(&mut self, tree: &KdTree) {
+        let n = &tree.nodes[self.node as usize];
+        self.pos = tree.comp_position(self.node, self.local);
+        self.normal = tree.comps[(n.comp_start + self.local as u32) as usize].normal();
     }
 }
 
@@ -84,20 +91,27 @@ pub(super) fn refuse_folding_leaves(tree: &mut KdTree, h: &Hermite) -> usize {
     let edges = crossing_edges(tree);
     let h = &Halo::new(h);
     // The first pass visits every edge and learns its four cells; later ones only
-    // the edges below a node the pass before refused.
+    // the edges below a node the pass before refused. Refusals are rare: the few
+    // edges that refuse share one list.
     let t: &KdTree = tree;
-    let first: Vec<([u32; 4], Vec<u32>)> = edges
+    let found = std::sync::Mutex::new(Vec::new());
+    let cells: Vec<[u32; 4]> = edges
         .par_iter()
         .map_init(Scratch::default, |s, e| {
-            let mut marks = Vec::new();
-            let cells = check_edge(t, h, *e, s, &mut marks);
-            (cells, marks)
+            let cells = check_edge(t, h, *e, s);
+            if !s.refused.is_empty() {
+                found
+                    .lock()
+                    .expect("no thread panics holding it")
+                    .append(&mut s.refused);
+            }
+            cells
         })
         .collect();
-    let cells: Vec<[u32; 4]> = first.iter().map(|f| f.0).collect();
-    let mut marks: Vec<u32> = first.into_iter().flat_map(|f| f.1).collect();
+    let mut marks = found.into_inner().expect("no thread panicked holding it");
     let mut refused = 0;
-    let mut dirty = vec![false; tree.nodes.len()];
+    // Per cell, the deepest node refused in the last pass above it.
+    let mut under = vec![NONE; tree.nodes.len()];
     loop {
         marks.sort_unstable();
         marks.dedup();
@@ -105,33 +119,43 @@ pub(super) fn refuse_folding_leaves(tree: &mut KdTree, h: &Hermite) -> usize {
             return refused;
         }
         refused += marks.len();
-        dirty.fill(false);
+        under.fill(NONE);
+        // Outer nodes first (a child's box is smaller), so the deepest one wins.
+        marks.sort_by_key(|&m| std::cmp::Reverse(volume(&tree.nodes[m as usize])));
         for &m in &marks {
             tree.nodes[m as usize].leaf_ok = false;
-            mark_cells(tree, m, &mut dirty);
+            mark_cells(tree, m, &mut under);
         }
         let t: &KdTree = tree;
-        let dirty = &dirty;
+        let under = &under;
         marks = (0..edges.len())
             .into_par_iter()
-            .filter(|&i| cells[i].iter().any(|&c| c != NONE && dirty[c as usize]))
+            .filter(|&i| touches_refused(&cells[i], under))
             .map_init(Scratch::default, |s, i| {
-                let mut marks = Vec::new();
-                check_edge(t, h, edges[i], s, &mut marks);
-                marks
+                check_edge(t, h, edges[i], s);
+                std::mem::take(&mut s.refused)
             })
             .flatten_iter()
             .collect();
     }
 }
 
-/// Sets `dirty` on every cell leaf below node `n`.
-fn mark_cells(tree: &KdTree, n: u32, dirty: &mut [bool]) {
+/// Whether a node refused in the last pass can be a corner of the polygons of the
+/// edge around `cells`: a refused node above all four cells is above the node
+/// they share, where the polygon has collapsed, so only an edge across a refused
+/// node's side (or with a cell outside the tree) sees it.
+fn touches_refused(cells: &[u32; 4], under: &[u32]) -> bool {
+    let deepest = cells.map(|c| (c != NONE).then(|| under[c as usize]));
+    deepest.iter().any(|m| m.is_some_and(|m| m != NONE)) && deepest.iter().any(|m| *m != deepest[0])
+}
+
+/// Sets `under` to `n` on every cell leaf below node `n`.
+fn mark_cells(tree: &KdTree, n: u32, under: &mut [u32]) {
     let mut stack = vec![n];
     while let Some(m) = stack.pop() {
         let node = &tree.nodes[m as usize];
         if node.axis == CELL {
-            dirty[m as usize] = true;
+            under[m as usize] = n;
         } else {
             stack.extend(node.children.iter().filter(|&&c| c != NONE));
         }
@@ -196,9 +220,10 @@ impl<'a> Halo<'a> {
         Halo { h }
     }
 
-    /// The rung of the patch of cell `c` that edge `edge` belongs to, standing in
-    /// quadrant `q`; `None` when the data has no such cell.
-    fn rung(&self, c: [u32; 3], edge: usize, q: usize) -> Option<Rung> {
+    /// The index of cell `c` in the data and the patch of it that edge `edge`
+    /// belongs to; `None` when the data has no such cell or the edge does not
+    /// cross in it.
+    fn find(&self, c: [u32; 3], edge: usize) -> Option<(usize, u8)> {
         let key = (c[2], c[1], c[0]);
         let i = self
             .h
@@ -209,18 +234,22 @@ impl<'a> Halo<'a> {
             .ok()?;
         let cell = self.h.cells[i];
         let local = CellTables::get().cell(cell.config, cell.mask).edge_comp[edge];
-        if local == NO_COMP {
-            return None;
-        }
+        (local != NO_COMP).then_some((i, local))
+    }
+
+    /// The rung of patch `local` of cell `i` (from [`Halo::find`]), standing in
+    /// quadrant `q`.
+    fn rung(&self, (i, local): (usize, u8), q: usize) -> Rung {
+        let cell = self.h.cells[i];
         let p = cell.patch_base as usize + local as usize;
         let lo = Vec3::from_array(cell.coord.map(|v| v as f32));
-        Some(Rung {
+        Rung {
             node: NONE - q as u32,
             local,
             error: f32::NEG_INFINITY,
             pos: self.h.patch_qef[p].solve(lo, lo + Vec3::ONE).0,
             normal: self.h.patch_normal[p].normalize_or_zero(),
-        })
+        }
     }
 }
 
@@ -231,30 +260,43 @@ struct Scratch {
     paths: [Vec<u32>; 4],
     ladders: [Vec<Rung>; 4],
     errors: Vec<f32>,
+    /// The nodes this edge refused.
+    refused: Vec<u32>,
 }
 
-/// Sets `path` to the root-to-cell path of `cell` and returns the cell's node, or
-/// `None` when the cell is not in the tree. The path already there (of a
-/// neighbouring cell, most often) keeps the top it shares.
-fn descend(tree: &KdTree, cell: [u32; 3], path: &mut Vec<u32>) -> Option<u32> {
-    let child = |n: u32| {
+/// Sets `path` to the root-to-cell path of `cell`, a cell in the tree's box, and
+/// returns the cell's node, or `None` when the tree has no such cell. It starts
+/// from the deepest node of `near` (a root-to-node path: a neighbouring cell's,
+/// most often) whose box holds the cell; `near` may be `path` itself.
+fn descend(
+    tree: &KdTree,
+    cell: [u32; 3],
+    near: Option<&[u32]>,
+    path: &mut Vec<u32>,
+) -> Option<u32> {
+    let holds = |n: u32| {
         let node = &tree.nodes[n as usize];
-        node.children[(cell[node.axis as usize] >= node.split as u32) as usize]
+        (0..3).all(|a| node.min[a] as u32 <= cell[a] && cell[a] < node.max[a] as u32)
     };
-    let mut keep = 1;
-    while keep < path.len() && child(path[keep - 1]) == path[keep] {
-        keep += 1;
+    match near {
+        Some(near) => {
+            let keep = near.iter().rposition(|&n| holds(n)).map_or(0, |j| j + 1);
+            path.clear();
+            path.extend_from_slice(&near[..keep]);
+        }
+        None => {
+            let keep = path.iter().rposition(|&n| holds(n)).map_or(0, |j| j + 1);
+            path.truncate(keep);
+        }
     }
     if path.first() != Some(&tree.root) {
-        keep = 0;
-    }
-    path.truncate(keep);
-    if path.is_empty() {
+        path.clear();
         path.push(tree.root);
     }
     let mut n = *path.last().expect("the root at least");
     while tree.nodes[n as usize].axis != CELL {
-        n = child(n);
+        let node = &tree.nodes[n as usize];
+        n = node.children[(cell[node.axis as usize] >= node.split as u32) as usize];
         if n == NONE {
             path.clear();
             return None;
@@ -277,7 +319,7 @@ fn climb(tree: &KdTree, path: &[u32], shared: usize, edge: usize, rungs: &mut Ve
     if local == NO_COMP {
         return false;
     }
-    rungs.push(Rung::of(tree, n, local, f32::NEG_INFINITY));
+    rungs.push(Rung::bare(n, local, f32::NEG_INFINITY));
     let mut child = n;
     for &p in path[shared.min(path.len() - 1)..path.len() - 1]
         .iter()
@@ -289,7 +331,7 @@ fn climb(tree: &KdTree, path: &[u32], shared: usize, edge: usize, rungs: &mut Ve
         }
         local = tree.comps[(tree.nodes[child as usize].comp_start + local as u32) as usize].parent;
         if node.leaf_ok {
-            rungs.push(Rung::of(tree, p, local, node.error));
+            rungs.push(Rung::bare(p, local, node.error));
         }
         child = p;
     }
@@ -297,33 +339,39 @@ fn climb(tree: &KdTree, path: &[u32], shared: usize, edge: usize, rungs: &mut Ve
 }
 
 /// Sweeps the thresholds at which the polygon of `edge` changes, pushing onto
-/// `refused` the nodes refused to keep every one of them facing the right way.
-/// Returns the edge's four cells (all [`NONE`] when one is not in the tree).
-fn check_edge(
-    tree: &KdTree,
-    halo: &Halo,
-    edge: Edge,
-    s: &mut Scratch,
-    refused: &mut Vec<u32>,
-) -> [u32; 4] {
+/// `s.refused` the nodes refused to keep every one of them facing the right way.
+/// Returns the edge's four cells, or all [`NONE`] when one is not in the tree or
+/// when no corner can ever be a clustered node (refusals only take rungs away, so
+/// such an edge never needs looking at again).
+fn check_edge(tree: &KdTree, halo: &Halo, edge: Edge, s: &mut Scratch) -> [u32; 4] {
     let Edge { line, d } = edge;
     let (u, v) = ((d + 1) % 3, (d + 2) % 3);
     let mut cells = [NONE; 4];
     let root = &tree.nodes[tree.root as usize];
-    let mut halo_rungs = [None; 4];
+    let mut halo_cells = [None; 4];
+    // The first quadrant in the tree: the others start from its path.
+    let mut anchor: Option<usize> = None;
     for (q, &(qu, qv)) in QUADRANT.iter().enumerate() {
         let mut c = line;
         // Wrapping: a cell below the grid's side is no cell at all.
         c[u] = (line[u] + qu).wrapping_sub(1);
         c[v] = (line[v] + qv).wrapping_sub(1);
         if (0..3).all(|a| c[a] >= root.min[a] as u32 && c[a] < root.max[a] as u32) {
-            match descend(tree, c, &mut s.paths[q]) {
+            let found = match anchor {
+                None => descend(tree, c, None, &mut s.paths[q]),
+                Some(a) => {
+                    let (near, rest) = s.paths[..].split_at_mut(q);
+                    descend(tree, c, Some(near[a].as_slice()), &mut rest[0])
+                }
+            };
+            anchor.get_or_insert(q);
+            match found {
                 Some(n) => cells[q] = n,
                 None => return [NONE; 4],
             }
         } else {
-            match halo.rung(c, edge_index(d, 1 - qu, 1 - qv), q) {
-                Some(r) => halo_rungs[q] = Some(r),
+            match halo.find(c, edge_index(d, 1 - qu, 1 - qv)) {
+                Some(found) => halo_cells[q] = Some(found),
                 None => return [NONE; 4],
             }
         }
@@ -341,9 +389,8 @@ fn check_edge(
             .unwrap_or(0)
     };
     for (q, &(qu, qv)) in QUADRANT.iter().enumerate() {
-        if let Some(r) = halo_rungs[q] {
+        if halo_cells[q].is_some() {
             s.ladders[q].clear();
-            s.ladders[q].push(r);
         } else if !climb(
             tree,
             &s.paths[q],
@@ -352,6 +399,17 @@ fn check_edge(
             &mut s.ladders[q],
         ) {
             return [NONE; 4];
+        }
+    }
+    // No clustered node at any corner: the polygon is Dual Marching Cubes' at
+    // every threshold, nothing to refuse.
+    if s.ladders.iter().all(|l| l.len() <= 1) {
+        return [NONE; 4];
+    }
+    for (q, l) in s.ladders.iter_mut().enumerate() {
+        match halo_cells[q] {
+            Some(found) => l.push(halo.rung(found, q)),
+            None => l.iter_mut().for_each(|r| r.place(tree)),
         }
     }
     let inside_low = !tree.is_outside(line);
@@ -369,6 +427,11 @@ fn check_edge(
             while at[q] + 1 < l.len() && l[at[q] + 1].error <= t {
                 at[q] += 1;
             }
+        }
+        // No corner climbed (its rung was refused): the polygon is the one
+        // already looked at.
+        if at == before {
+            continue;
         }
         // The corners that climbed at this threshold (to the merge that may fold).
         let mut climbed = [0, 1, 2, 3].map(|q| at[q] != before[q]);
@@ -399,7 +462,7 @@ fn check_edge(
             climbed = [false; 4];
             let big = leaves[q];
             let big = big.node;
-            refused.push(big);
+            s.refused.push(big);
             for (q, l) in s.ladders.iter_mut().enumerate() {
                 if l.iter().any(|r| r.node == big) {
                     l.retain(|r| r.node != big);
