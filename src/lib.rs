@@ -45,6 +45,7 @@
 //! | [`lod`] | [`LodPlugin`] | thresholds from the camera |
 //! | [`tasks`] | [`TasksPlugin`] | builds and extractions on the task pool |
 //! | [`upload`] | [`UploadPlugin`] | meshes onto the chunk entities |
+//! | [`persist`] | [`PersistPlugin`] | saves and loads the edits of [`KdSave`] volumes |
 //! | `debug` (feature `debug`) | `DebugPlugin` | colours chunks by LOD band |
 //!
 //! [`chunks`] is the chunk world behind a volume (one level, or levels);
@@ -80,6 +81,7 @@ pub mod lod;
 pub mod messages;
 #[cfg(feature = "egui")]
 pub mod panel;
+pub mod persist;
 pub mod plugins;
 pub mod settings;
 pub mod state;
@@ -97,6 +99,7 @@ pub use lod::LodPlugin;
 pub use messages::{
     ApplyEdit, ChunkFailed, ChunkMeshed, EditApplied, LodChanged, MessagesPlugin, ReplaceField,
 };
+pub use persist::{EditsLoaded, EditsSaved, KdSave, PersistFailed, PersistPlugin};
 pub use plugins::{KdContourPlugin, KdContourPlugins};
 pub use settings::{KdContourSettings, LodSettings, SettingsPlugin};
 pub use state::VolumeState;
@@ -111,9 +114,10 @@ pub use volume::{
 /// Everything a user of the plugin needs.
 pub mod prelude {
     pub use crate::{
-        ApplyEdit, ChunkFailed, ChunkMeshed, ChunkStatus, EditApplied, KdChunk, KdContourPlugin,
-        KdContourPlugins, KdContourSettings, KdContourStats, KdContourSystems, KdVolume, LodCamera,
-        LodChanged, LodSettings, ReplaceField, SharedField, VolumeExtent, VolumeState,
+        ApplyEdit, ChunkFailed, ChunkMeshed, ChunkStatus, EditApplied, EditsLoaded, EditsSaved,
+        KdChunk, KdContourPlugin, KdContourPlugins, KdContourSettings, KdContourStats,
+        KdContourSystems, KdSave, KdVolume, LodCamera, LodChanged, LodSettings, PersistFailed,
+        ReplaceField, SharedField, VolumeExtent, VolumeState,
     };
     pub use kdcontour::edit::{Brush, BrushOp};
     pub use kdcontour::world::ChunkKey;

@@ -5,6 +5,7 @@
 use crate::edits::EditsPlugin;
 use crate::lod::LodPlugin;
 use crate::messages::MessagesPlugin;
+use crate::persist::PersistPlugin;
 use crate::settings::{KdContourSettings, SettingsPlugin};
 use crate::stats::StatsPlugin;
 use crate::streaming::StreamingPlugin;
@@ -15,7 +16,7 @@ use bevy::app::PluginGroupBuilder;
 use bevy::prelude::*;
 
 /// Chunked, LOD-driven meshing of [`crate::KdVolume`]s: settings, volumes and
-/// chunks, messages, edits, streaming, LOD, tasks, upload, stats, and (crate
+/// chunks, messages, edits, streaming, LOD, tasks, upload, stats, saving, and (crate
 /// feature `debug`) LOD colouring.
 #[derive(Default)]
 pub struct KdContourPlugins {
@@ -36,7 +37,8 @@ impl PluginGroup for KdContourPlugins {
             .add(StreamingPlugin)
             .add(LodPlugin)
             .add(TasksPlugin)
-            .add(UploadPlugin);
+            .add(UploadPlugin)
+            .add(PersistPlugin);
         with_debug(group)
     }
 }

@@ -283,7 +283,7 @@ impl Plugin for VolumePlugin {
     }
 }
 
-fn init_volumes(
+pub(crate) fn init_volumes(
     mut commands: Commands,
     settings: Res<KdContourSettings>,
     clock: Res<MainThreadClock>,
@@ -402,7 +402,7 @@ fn streaming_budget(
 
 /// A volume whose field or iso changed: replay its edits on the new field and
 /// rebuild every chunk.
-fn sync_volumes(
+pub(crate) fn sync_volumes(
     clock: Res<MainThreadClock>,
     mut volumes: Query<(Entity, &KdVolume, &mut VolumeState), Changed<KdVolume>>,
 ) {

@@ -1,6 +1,10 @@
 //! Edits: brushes (any CSG shape, usually one transformed primitive) applied to a
 //! base field in order. The log is serialisable, so an edited world can be saved
-//! and replayed exactly.
+//! and replayed exactly; [`compact`] drops the brushes later ones provably erase.
+
+mod compact;
+
+pub use compact::compact;
 
 use crate::error::{Error, Result};
 use crate::field::csg::{Csg, CsgNode};
@@ -75,6 +79,24 @@ impl EditedField {
     /// This field with `brush` applied on top (the original is unchanged, so
     /// meshing tasks that hold it keep a consistent field).
     pub fn with_edit(&self, brush: Brush) -> Result<EditedField> {
+        self.with_edits([brush])
+    }
+
+    /// This field with `brushes` applied on top, in order (one copy of the log
+    /// however many there are: replaying 10,000 edits is linear).
+    pub fn with_edits(&self, brushes: impl IntoIterator<Item = Brush>) -> Result<EditedField> {
+        let mut edits: Vec<Arc<Compiled>> = (*self.edits).clone();
+        for brush in brushes {
+            edits.push(Arc::new(Self::compile(brush)?));
+        }
+        Ok(EditedField {
+            base: self.base.clone(),
+            edits: Arc::new(edits),
+        })
+    }
+
+    /// Checks and compiles one brush.
+    fn compile(brush: Brush) -> Result<Compiled> {
         let field = brush.shape.compile()?;
         let blend = match brush.op {
             BrushOp::Add | BrushOp::Subtract => 0.0,
@@ -94,17 +116,17 @@ impl EditedField {
                 name: "brush",
                 reason: "a brush must be bounded (no planes or terrain)".into(),
             })?;
-        let mut edits: Vec<Arc<Compiled>> = (*self.edits).clone();
-        edits.push(Arc::new(Compiled {
+        Ok(Compiled {
             brush,
             field,
             reach: (c, r + blend),
             blend,
-        }));
-        Ok(EditedField {
-            base: self.base.clone(),
-            edits: Arc::new(edits),
         })
+    }
+
+    /// How many brushes have been applied.
+    pub fn edit_count(&self) -> usize {
+        self.edits.len()
     }
 
     /// The brushes applied so far, oldest first.
@@ -114,8 +136,7 @@ impl EditedField {
 
     /// Replays a log onto a base field.
     pub fn replay(base: Arc<dyn Field>, log: &[Brush]) -> Result<EditedField> {
-        log.iter()
-            .try_fold(EditedField::new(base), |f, b| f.with_edit(b.clone()))
+        EditedField::new(base).with_edits(log.iter().cloned())
     }
 
     /// Centre and radius of the region the last edit can change.
