@@ -11,6 +11,11 @@
 //! brush size. L colours chunks by level (blue finest, red coarsest). F1 hides
 //! the panel.
 //!
+//! The sculpting is saved to `terrain-seed<SEED>.kdsave` in the working
+//! directory two seconds after the last stroke and on exit, and loaded at the
+//! next start with the same seed (`--save PATH` elsewhere, `--no-save` not at
+//! all; screenshot runs neither load nor save).
+//!
 //! ```text
 //! cargo run --release --example terrain
 //! cargo run --release --example terrain -- --screenshot terrain.png
@@ -53,6 +58,13 @@ struct Args {
     /// Cells per chunk side (even).
     #[arg(long, default_value_t = 32)]
     chunk_res: u32,
+    /// Where the sculpting is saved and loaded from (default
+    /// `terrain-seed<SEED>.kdsave` in the working directory).
+    #[arg(long)]
+    save: Option<std::path::PathBuf>,
+    /// Neither load nor save the sculpting.
+    #[arg(long)]
+    no_save: bool,
     #[command(flatten)]
     shot: ShotArgs,
 }
@@ -97,8 +109,17 @@ fn main() {
             args.chunk_res, args.view_distance, args.level0_cells
         ));
     }
-    let field: Arc<dyn Field> = Arc::new(Density::new(DensityParams::demo(args.seed)));
+    let params = DensityParams::demo(args.seed);
+    let field: Arc<dyn Field> = Arc::new(Density::new(params.clone()));
     let scripted = args.shot.screenshot.is_some();
+    // Screenshots show the same terrain every time: no save read or written.
+    let save = (!args.no_save && !scripted).then(|| {
+        let path = args
+            .save
+            .clone()
+            .unwrap_or_else(|| format!("terrain-seed{}.kdsave", args.seed).into());
+        KdSave::new(path, KdSave::fingerprint_of(&params))
+    });
     let mut app = App::new();
     app.insert_resource(ClearColor(Color::srgb(0.62, 0.75, 0.9)));
     common::add_plugins(
@@ -130,6 +151,7 @@ fn main() {
         overview: args.overview,
         res: args.chunk_res,
         scripted,
+        save,
     })
     .add_systems(Startup, setup)
     .add_systems(
@@ -155,6 +177,7 @@ struct Seed {
     overview: bool,
     res: u32,
     scripted: bool,
+    save: Option<KdSave>,
 }
 
 fn setup(mut commands: Commands, seed: Res<Seed>, mut materials: ResMut<Assets<StandardMaterial>>) {
@@ -172,6 +195,9 @@ fn setup(mut commands: Commands, seed: Res<Seed>, mut materials: ResMut<Assets<S
     let volume = commands
         .spawn(volume.with_rows(-3, 1).with_material(ground))
         .id();
+    if let Some(save) = &seed.save {
+        commands.entity(volume).insert(save.clone());
+    }
     let (fly, transform) = if seed.overview {
         // From high above, looking down at the rings of levels around a LOD
         // camera standing 40 cells over the ground (so the rings are the ones a

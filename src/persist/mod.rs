@@ -175,6 +175,10 @@ fn load_saves(
                 let edits = field.edit_count() - state.field().edit_count();
                 state.set_field(field);
                 state.rebuild_all();
+                info!(
+                    "KdVolume {volume}: loaded {edits} edits from {}",
+                    save.path.display()
+                );
                 loaded.write(EditsLoaded {
                     volume,
                     path: save.path.clone(),
