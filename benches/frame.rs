@@ -2,6 +2,11 @@
 //! systems (LOD, streaming, scheduling, polling, uploads), meshing tasks aside.
 //!
 //! - `frame_1000_chunks`: a bounded volume of 1,000 chunks around a sphere.
+//! - `frame_1000_chunks_colliders`: the same volume with avian physics on, every
+//!   chunk within reach of the camera carrying a trimesh collider, and a
+//!   collider anchor (a falling body's) moving through the volume, so chunks gain
+//!   and lose colliders every frame; it prints the plugin's main-thread time per
+//!   frame (mean, p99, max) and the chunks with colliders.
 //! - `horizon_4096`: the terrain demo's field seen 4,096 cells out through chunk
 //!   levels (32-cell chunks, meshing on 2 task threads), the camera flying at 50
 //!   cells a second at 60 frames a second. Before measuring it prints the chunk
@@ -215,5 +220,73 @@ fn thread_cpu_ms() -> f64 {
         .map_or(0.0, |ns| ns as f64 * 1e-6)
 }
 
-criterion_group!(benches, frame, horizon);
+/// [`frame`] with colliders: the plugin's main thread per frame while chunks gain
+/// and lose colliders around a moving anchor.
+fn frame_colliders(c: &mut Criterion) {
+    use bevy_kdcontour::avian3d::prelude::*;
+    use bevy_kdcontour::{ColliderAnchor, ColliderSettings};
+    let mut app = App::new();
+    app.add_plugins((
+        HeadlessPlugins,
+        KdContourPlugins::default(),
+        PhysicsPlugins::default(),
+    ))
+    .insert_resource(ColliderSettings {
+        // Chunks are 0.2 units: about 250 chunks around the camera and anchor.
+        distance: 0.5,
+        ..Default::default()
+    });
+    // `App::run` does this; avian sets up its diagnostics resources in `finish`.
+    app.finish();
+    app.cleanup();
+    let field: Arc<dyn kdcontour::Field> = Arc::new(kdcontour::field::FnField(|p: Vec3| {
+        (p - Vec3::splat(1.0)).length() - 0.8
+    }));
+    let volume = app
+        .world_mut()
+        .spawn(KdVolume::new(field, UVec3::splat(10), 8, 2.0 / 80.0))
+        .id();
+    app.world_mut()
+        .spawn((LodCamera, Transform::from_xyz(1.0, 1.9, 1.0)));
+    let anchor = app
+        .world_mut()
+        .spawn((ColliderAnchor, Transform::from_xyz(1.0, 1.0, 0.1)))
+        .id();
+    assert!(
+        run_until_settled(&mut app, volume, 20_000, Duration::ZERO),
+        "the volume did not settle"
+    );
+    let mut t = 0.0f32;
+    let mut frames: Vec<f64> = Vec::new();
+    let mut g = c.benchmark_group("frame_1000_chunks_colliders");
+    g.sample_size(50).measurement_time(Duration::from_secs(5));
+    g.bench_function("anchor_moving", |b| {
+        b.iter(|| {
+            t += 0.02;
+            app.world_mut()
+                .get_mut::<Transform>(anchor)
+                .unwrap()
+                .translation = Vec3::new(1.0 + 0.9 * t.cos(), 1.0, 1.0 + 0.9 * t.sin());
+            app.update();
+            frames.push(app.world().resource::<KdContourStats>().main_thread_ms);
+        })
+    });
+    g.finish();
+    let with = app
+        .world_mut()
+        .query::<(&KdChunk, &Collider)>()
+        .iter(app.world())
+        .count();
+    frames.sort_by(f64::total_cmp);
+    let mean = frames.iter().sum::<f64>() / frames.len().max(1) as f64;
+    println!(
+        "frame_1000_chunks_colliders: {with} chunks with colliders at the end; plugin \
+         main thread per frame over {} frames: mean {mean:.3} ms, p99 {:.3} ms, max {:.3} ms",
+        frames.len(),
+        frames[(frames.len() * 99 / 100).min(frames.len() - 1)],
+        frames.last().unwrap()
+    );
+}
+
+criterion_group!(benches, frame, frame_colliders, horizon);
 criterion_main!(benches);

@@ -8,8 +8,9 @@
 //!
 //! Keys: WASD move, E / Space up, Q down, Shift faster, arrow keys or middle mouse
 //! drag to look. Left mouse adds material, right mouse digs, the wheel sets the
-//! brush size. L colours chunks by level (blue finest, red coarsest). F1 hides
-//! the panel.
+//! brush size. L colours chunks by level (blue finest, red coarsest). V walks
+//! (a capsule player with gravity on the terrain; Space jumps) or flies again.
+//! F1 hides the panel.
 //!
 //! The sculpting is saved to `terrain-seed<SEED>.kdsave` in the working
 //! directory two seconds after the last stroke and on exit, and loaded at the
@@ -27,6 +28,7 @@ mod common;
 
 use bevy::input::mouse::AccumulatedMouseScroll;
 use bevy::prelude::*;
+use bevy_kdcontour::avian3d::prelude::PhysicsPlugins;
 use bevy_kdcontour::kdcontour::field::raycast;
 use bevy_kdcontour::kdcontour::field::terrain::{Density, DensityParams};
 use bevy_kdcontour::kdcontour::Field;
@@ -153,11 +155,15 @@ fn main() {
         scripted,
         save,
     })
+    .add_plugins(PhysicsPlugins::default())
+    .init_resource::<common::walk::Walking>()
     .add_systems(Startup, setup)
     .add_systems(
         Update,
         (
+            common::walk::toggle_walk,
             common::fly_camera,
+            common::walk::walk,
             sculpt,
             brush_preview,
             scripted_edits,

@@ -47,6 +47,7 @@
 //! | [`upload`] | [`UploadPlugin`] | meshes onto the chunk entities |
 //! | [`persist`] | [`PersistPlugin`] | saves and loads the edits of [`KdSave`] volumes |
 //! | `debug` (feature `debug`) | `DebugPlugin` | colours chunks by LOD band |
+//! | `colliders` (feature `avian`) | `CollidersPlugin` | avian3d trimesh colliders near the camera and `ColliderAnchor`s, built in the meshing tasks |
 //!
 //! [`chunks`] is the chunk world behind a volume (one level, or levels);
 //! [`headless`] runs it with no renderer; `panel` (feature `egui`) is the egui
@@ -69,9 +70,13 @@
 
 use bevy::prelude::*;
 
+#[cfg(feature = "avian")]
+pub use avian3d;
 pub use kdcontour;
 
 pub mod chunks;
+#[cfg(feature = "avian")]
+pub mod colliders;
 #[cfg(feature = "debug")]
 pub mod debug;
 pub mod edits;
@@ -92,6 +97,8 @@ pub mod upload;
 pub mod volume;
 
 pub use chunks::VolumeWorld;
+#[cfg(feature = "avian")]
+pub use colliders::{ColliderAnchor, ColliderSettings, CollidersPlugin};
 #[cfg(feature = "debug")]
 pub use debug::DebugPlugin;
 pub use edits::EditsPlugin;

@@ -53,10 +53,13 @@ pub(crate) fn update_lod(
         for c in keys {
             // A chunk's threshold is in squared cells of its own level: it follows
             // the curve at its distance in those cells.
-            let want = match local {
+            let mut want = match local {
                 Some(p) => curve.threshold(state.distance(p, &c) / (1u32 << c.level) as f32),
                 None => settings.default_threshold,
             };
+            if let Some(cap) = state.collider_cap(&c) {
+                want = want.min(cap);
+            }
             let have = state.world().threshold(&c);
             let differs = if local.is_some() && have > 0.0 && want > 0.0 {
                 (want / have).ln().abs() > (1.0 + lod.hysteresis).ln()

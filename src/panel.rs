@@ -1,5 +1,6 @@
 //! An egui panel for the plugin (crate feature `egui`): counts, meshing times,
-//! the threshold and the LOD curve, the iso value, wireframe and LOD colouring.
+//! the threshold and the LOD curve, the iso value, wireframe and LOD colouring,
+//! and (feature `avian`) the collider distance, threshold and layers.
 //!
 //! Add [`KdContourPanelPlugin`] after [`crate::KdContourPlugins`] (it adds
 //! `bevy_egui`'s `EguiPlugin` and Bevy's `WireframePlugin` when they are missing).
@@ -83,6 +84,25 @@ fn log_slider(ui: &mut egui::Ui, value: &mut f32, range: RangeInclusive<f32>, la
     );
 }
 
+/// The collider settings: on or off, distance, threshold; the layers' bits.
+#[cfg(feature = "avian")]
+fn collider_rows(ui: &mut egui::Ui, c: &mut crate::ColliderSettings) {
+    ui.separator();
+    ui.checkbox(&mut c.enabled, "colliders");
+    if c.enabled {
+        ui.add(
+            egui::Slider::new(&mut c.distance, 1.0..=512.0)
+                .logarithmic(true)
+                .text("collider distance"),
+        );
+        log_slider(ui, &mut c.threshold, 1e-5..=1.0, "collider threshold");
+        ui.small(format!(
+            "layers: member of {:#x}, collides with {:#x}",
+            c.layers.memberships.0, c.layers.filters.0
+        ));
+    }
+}
+
 fn draw_panel(
     mut contexts: EguiContexts,
     mut panel: ResMut<KdContourPanel>,
@@ -91,6 +111,7 @@ fn draw_panel(
     diagnostics: Option<Res<DiagnosticsStore>>,
     wireframe: Option<ResMut<WireframeConfig>>,
     mut volumes: Query<&mut KdVolume>,
+    #[cfg(feature = "avian")] colliders: Option<ResMut<crate::ColliderSettings>>,
 ) -> Result {
     let ctx = contexts.ctx_mut()?;
     if !panel.open {
@@ -177,6 +198,10 @@ fn draw_panel(
                         }
                     }
                 }
+            }
+            #[cfg(feature = "avian")]
+            if let Some(mut c) = colliders {
+                collider_rows(ui, &mut c);
             }
             ui.horizontal(|ui| {
                 if let Some(w) = wireframe.as_mut() {

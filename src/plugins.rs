@@ -39,8 +39,20 @@ impl PluginGroup for KdContourPlugins {
             .add(TasksPlugin)
             .add(UploadPlugin)
             .add(PersistPlugin);
-        with_debug(group)
+        with_colliders(with_debug(group))
     }
+}
+
+/// Adds the collider subsystem (crate feature `avian`).
+#[cfg(feature = "avian")]
+fn with_colliders(group: PluginGroupBuilder) -> PluginGroupBuilder {
+    group.add(crate::colliders::CollidersPlugin)
+}
+
+/// Without the `avian` feature there are no colliders.
+#[cfg(not(feature = "avian"))]
+fn with_colliders(group: PluginGroupBuilder) -> PluginGroupBuilder {
+    group
 }
 
 /// Adds the debug subsystem (crate feature `debug`).

@@ -24,6 +24,9 @@ pub(crate) struct ReadyMesh {
     pub triangles: usize,
     /// The Bevy mesh; `None` when the chunk has no surface.
     pub mesh: Option<Mesh>,
+    /// The collider of the same triangles, when the chunk wants one.
+    #[cfg(feature = "avian")]
+    pub collider: Option<crate::colliders::ChunkCollider>,
 }
 
 impl ReadyMesh {
@@ -33,6 +36,8 @@ impl ReadyMesh {
             threshold,
             triangles: mesh.triangle_count(),
             mesh: (!mesh.is_empty()).then(|| crate::upload::to_bevy_mesh(mesh)),
+            #[cfg(feature = "avian")]
+            collider: None,
         }
     }
 }
@@ -59,6 +64,9 @@ pub(crate) struct ChunkSlot {
     /// Its mesh waits for the rest of a level change, to be shown in the same
     /// frame as the chunks it replaces are dropped (see [`crate::horizon`]).
     pub held: bool,
+    /// The chunk is near the camera or a collider anchor: its meshes carry a
+    /// collider (feature `avian`).
+    pub collider: bool,
     /// It has shown a mesh (or its lack of surface) at least once.
     pub shown: bool,
 }
@@ -124,6 +132,10 @@ pub struct VolumeState {
     pub(crate) seam_partners: ChunkMap<Vec<ChunkKey>>,
     /// A horizon volume's layout whose chunks are shown, and which of them.
     pub(crate) horizon_shown: Option<(Layout, HorizonKeep)>,
+    /// Chunks with a collider: their threshold cap and the colliders' layers
+    /// (`None` with colliders off).
+    #[cfg(feature = "avian")]
+    pub(crate) colliders: Option<(f32, avian3d::prelude::CollisionLayers)>,
 }
 
 impl VolumeState {
@@ -141,6 +153,8 @@ impl VolumeState {
             seam_owners: ChunkMap::default(),
             seam_partners: ChunkMap::default(),
             horizon_shown: None,
+            #[cfg(feature = "avian")]
+            colliders: None,
         }
     }
 
@@ -241,6 +255,17 @@ impl VolumeState {
         }
     }
 
+    /// The threshold chunk `c` may not be cut coarser than because it carries a
+    /// collider (feature `avian`), if any.
+    pub(crate) fn collider_cap(&self, c: &ChunkKey) -> Option<f32> {
+        #[cfg(feature = "avian")]
+        if self.slots.get(c).is_some_and(|s| s.collider) {
+            return self.colliders.map(|(threshold, _)| threshold);
+        }
+        let _ = c;
+        None
+    }
+
     /// Whether a chunk whose mesh shows part of `c` is held for a level change.
     pub(crate) fn shows_held(&self, c: &ChunkKey) -> bool {
         self.transition
@@ -316,6 +341,7 @@ impl VolumeState {
                 ready: None,
                 held: false,
                 shown: false,
+                collider: false,
             },
         );
         self.mark_build(&c);

@@ -113,16 +113,26 @@ impl VolumeState {
                     return false;
                 };
                 let stamp = slot.extract_stamp;
+                #[cfg(feature = "avian")]
+                let layers = self
+                    .colliders
+                    .filter(|_| slot.collider)
+                    .map(|(_, layers)| layers);
                 // A newer extraction replaces a running one: dropping its task
                 // cancels it (its stamp would be stale anyway).
                 slot.extracting = Some(pool.spawn(async move {
                     let t = std::time::Instant::now();
                     let mut mesh = IndexedMesh::default();
                     snapshot.extract(&mut mesh);
-                    let mesh = ReadyMesh::new(threshold, &mesh);
+                    #[allow(unused_mut)]
+                    let mut ready = ReadyMesh::new(threshold, &mesh);
+                    #[cfg(feature = "avian")]
+                    {
+                        ready.collider = layers.and_then(|l| crate::colliders::build(&mesh, l));
+                    }
                     ExtractOut {
                         stamp,
-                        mesh,
+                        mesh: ready,
                         ms: t.elapsed().as_secs_f64() * 1e3,
                     }
                 }));

@@ -120,6 +120,8 @@ impl Upload<'_, '_, '_, '_, '_, '_> {
         let failed = matches!(info.status, ChunkStatus::Failed(_));
         info.threshold = ready.threshold;
         info.triangles = ready.triangles;
+        #[cfg(feature = "avian")]
+        crate::colliders::attach(self.commands, chunk, ready.collider);
         match ready.mesh {
             None => {
                 self.commands

@@ -3,6 +3,8 @@
 //! sun with sky light.
 #![allow(dead_code)] // not every example uses every helper
 
+pub mod walk;
+
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{save_to_disk, Screenshot, ScreenshotCaptured};
 use bevy::window::{PresentMode, WindowResolution};

@@ -1,5 +1,6 @@
 //! What the plugin's headless tests share: stepping an app until a volume
 //! settles, and reading back the mesh a chunk entity shows.
+#![allow(dead_code)] // not every test uses every helper
 
 use bevy::mesh::VertexAttributeValues;
 use bevy::prelude::*;

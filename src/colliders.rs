@@ -1,0 +1,178 @@
+//! Colliders (crate feature `avian`): [`CollidersPlugin`] gives every chunk within
+//! [`ColliderSettings::distance`] of the [`LodCamera`] or of any [`ColliderAnchor`]
+//! a static avian3d trimesh collider of exactly the mesh it shows.
+//!
+//! - **Built in the meshing task.** The extraction that makes a chunk's mesh
+//!   also builds its collider (avian's `Collider::trimesh_with_config`, with its
+//!   BVH) from the same buffers, on the task pool: no render `Mesh` asset is read
+//!   (so it works with no renderer), and the main thread only inserts it.
+//! - **Never stale.** Mesh and collider travel together and are inserted in the
+//!   same frame; an edit's re-extraction replaces both at once. Not through
+//!   avian's `ColliderConstructor`, whose cache is keyed by mesh asset and would
+//!   return the old collider after a re-mesh.
+//! - **Where they are needed.** Chunks within the distance of an anchor (and the
+//!   chunks that own seams touching them, so the surface there is whole) carry
+//!   a collider, cut at no coarser than [`ColliderSettings::threshold`]; a chunk
+//!   that leaves the distance is re-extracted without one. Empty chunks get none.
+//!
+//! Add avian's `PhysicsPlugins` yourself (the plugin does not step physics).
+
+use crate::lod::update_lod;
+use crate::state::VolumeState;
+use crate::stats::MainThreadClock;
+use crate::volume::LodCamera;
+use crate::KdContourSystems;
+use avian3d::prelude::{Collider, CollisionLayers, RigidBody, TrimeshFlags};
+use bevy::prelude::*;
+use kdcontour::world::{ChunkKey, ChunkSet};
+use kdcontour::IndexedMesh;
+
+/// Chunk colliders near the camera and anchors.
+pub struct CollidersPlugin;
+
+impl Plugin for CollidersPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<MainThreadClock>()
+            .init_resource::<ColliderSettings>()
+            .register_type::<ColliderSettings>()
+            .register_type::<ColliderAnchor>()
+            .add_systems(
+                PostUpdate,
+                want_colliders
+                    .in_set(KdContourSystems::Lod)
+                    .before(update_lod),
+            );
+    }
+}
+
+/// Where chunks get colliders and how.
+#[derive(Resource, Clone, Debug, Reflect)]
+#[reflect(Resource)]
+pub struct ColliderSettings {
+    /// Colliders at all.
+    pub enabled: bool,
+    /// Chunks within this distance (the volume's local units) of the
+    /// [`LodCamera`] or a [`ColliderAnchor`] get a collider.
+    pub distance: f32,
+    /// Chunks with a collider are cut at no coarser threshold than this (squared
+    /// cells of the chunk's level, as [`crate::LodSettings`]).
+    pub threshold: f32,
+    /// The colliders' collision layers.
+    #[reflect(ignore)]
+    pub layers: CollisionLayers,
+}
+
+impl Default for ColliderSettings {
+    fn default() -> Self {
+        ColliderSettings {
+            enabled: true,
+            distance: 48.0,
+            threshold: 0.02,
+            layers: CollisionLayers::default(),
+        }
+    }
+}
+
+/// Chunks near this entity get colliders (players, NPCs, projectiles), as near
+/// the [`LodCamera`].
+#[derive(Component, Clone, Copy, Debug, Default, Reflect)]
+#[reflect(Component)]
+pub struct ColliderAnchor;
+
+/// A chunk's collider, built in its extraction task, and its layers.
+pub(crate) type ChunkCollider = (Collider, CollisionLayers);
+
+/// The trimesh collider of `mesh` (in the volume's local space, as the chunk
+/// entity's), or `None` for an empty mesh or one avian refuses.
+pub(crate) fn build(mesh: &IndexedMesh, layers: CollisionLayers) -> Option<ChunkCollider> {
+    if mesh.is_empty() {
+        return None;
+    }
+    let vertices = mesh.positions.clone();
+    let indices: Vec<[u32; 3]> = mesh
+        .indices
+        .chunks_exact(3)
+        .map(|t| [t[0], t[1], t[2]])
+        .collect();
+    // Internal edges fixed so bodies slide over triangle edges without bumps.
+    match Collider::try_trimesh_with_config(vertices, indices, TrimeshFlags::FIX_INTERNAL_EDGES) {
+        Ok(c) => Some((c, layers)),
+        Err(e) => {
+            warn!("a chunk's trimesh collider failed: {e:?}");
+            None
+        }
+    }
+}
+
+/// Puts a chunk's new collider on its entity, or takes the old one away.
+pub(crate) fn attach(commands: &mut Commands, chunk: Entity, collider: Option<ChunkCollider>) {
+    match collider {
+        Some((collider, layers)) => {
+            commands
+                .entity(chunk)
+                .insert((RigidBody::Static, collider, layers));
+        }
+        None => {
+            commands
+                .entity(chunk)
+                .try_remove::<(Collider, RigidBody, CollisionLayers)>();
+        }
+    }
+}
+
+/// Marks the chunks that want a collider; a chunk whose want changed is
+/// re-extracted (with or without one). Runs before the LOD, which keeps those
+/// chunks at or below the collider threshold.
+fn want_colliders(
+    settings: Res<ColliderSettings>,
+    clock: Res<MainThreadClock>,
+    anchors: Query<&GlobalTransform, Or<(With<LodCamera>, With<ColliderAnchor>)>>,
+    mut volumes: Query<(&GlobalTransform, &mut VolumeState)>,
+) {
+    let _time = clock.measure();
+    for (vol_tf, mut state) in &mut volumes {
+        let state = &mut *state;
+        state.colliders = settings
+            .enabled
+            .then_some((settings.threshold, settings.layers));
+        let to_local = vol_tf.affine().inverse();
+        let points: Vec<Vec3> = anchors
+            .iter()
+            .map(|a| to_local.transform_point3(a.translation()))
+            .collect();
+        let mut want = ChunkSet::default();
+        if settings.enabled {
+            let near: Vec<ChunkKey> = state
+                .slots
+                .keys()
+                .filter(|k| {
+                    points
+                        .iter()
+                        .any(|p| state.distance(*p, k) <= settings.distance)
+                })
+                .copied()
+                .collect();
+            for k in near {
+                want.extend(state.world().seam_owners_touching(&k));
+                want.insert(k);
+            }
+        }
+        let mut changed: Vec<ChunkKey> = state
+            .slots
+            .iter()
+            .filter(|(k, s)| s.collider != want.contains(k))
+            .map(|(k, _)| *k)
+            .collect();
+        changed.sort_by_key(|k| k.order());
+        for k in changed {
+            // A chunk held for a level change keeps what it has until the end.
+            if state.shows_held(&k) {
+                continue;
+            }
+            let slot = state.slots.get_mut(&k).expect("listed");
+            slot.collider = !slot.collider;
+            slot.extract_stamp += 1;
+            slot.need_extract = true;
+        }
+    }
+}
