@@ -120,13 +120,17 @@ pub(crate) fn attach(commands: &mut Commands, chunk: Entity, collider: Option<Ch
     }
 }
 
+/// Where colliders are wanted from: the LOD camera and every anchor.
+type Anchors<'w, 's> =
+    Query<'w, 's, &'static GlobalTransform, Or<(With<LodCamera>, With<ColliderAnchor>)>>;
+
 /// Marks the chunks that want a collider; a chunk whose want changed is
 /// re-extracted (with or without one). Runs before the LOD, which keeps those
 /// chunks at or below the collider threshold.
 fn want_colliders(
     settings: Res<ColliderSettings>,
     clock: Res<MainThreadClock>,
-    anchors: Query<&GlobalTransform, Or<(With<LodCamera>, With<ColliderAnchor>)>>,
+    anchors: Anchors,
     mut volumes: Query<(&GlobalTransform, &mut VolumeState)>,
 ) {
     let _time = clock.measure();

@@ -103,6 +103,8 @@ fn collider_rows(ui: &mut egui::Ui, c: &mut crate::ColliderSettings) {
     }
 }
 
+// A Bevy system takes one parameter per resource it reads.
+#[allow(clippy::too_many_arguments)]
 fn draw_panel(
     mut contexts: EguiContexts,
     mut panel: ResMut<KdContourPanel>,

@@ -59,6 +59,14 @@ pub fn toggle_walk(
     }
 }
 
+/// The player's position and velocity (not the camera's).
+type Players<'w, 's> = Query<
+    'w,
+    's,
+    (&'static Transform, &'static mut LinearVelocity),
+    (With<Walker>, Without<FlyCam>),
+>;
+
 /// Walks the player with WASD on the ground plane of the camera's yaw, jumps
 /// with Space when its feet are on the ground, and puts the camera at its eyes
 /// (after the fly camera's look and move, so only the look remains).
@@ -66,7 +74,7 @@ pub fn walk(
     keys: Res<ButtonInput<KeyCode>>,
     walking: Res<Walking>,
     spatial: SpatialQuery,
-    mut players: Query<(&Transform, &mut LinearVelocity), (With<Walker>, Without<FlyCam>)>,
+    mut players: Players,
     mut cams: Query<(&FlyCam, &mut Transform)>,
 ) {
     let Some(player) = walking.0 else { return };
