@@ -1,13 +1,19 @@
 //! A sampled scalar volume (CT, MRI, simulation output) as a field: trilinear
 //! interpolation of voxel values around an iso value, closed at the volume's edge.
 //!
-//! The gradient is the one scan tools use (Lorensen and Cline's Marching Cubes
-//! normals): central differences over the voxel grid, two voxels wide, at every
-//! voxel, interpolated trilinearly between voxels. The slope of the trilinear
-//! values themselves is constant across each voxel cell and jumps at its faces,
-//! so on quantised data (segmented or thresholded scans, the phantom) its normals
-//! point along the axes and the surface shades as stacked terraces; the voxel
-//! gradient varies continuously. The values, and so the crossings, are untouched.
+//! The gradient is a scan tool's: that of the cubic B-spline whose coefficients
+//! are the voxels (the approximating spline, smoothing with weights 1/6, 2/3, 1/6
+//! along each axis), over the 4 x 4 x 4 voxels around a point. The slope of the
+//! trilinear values is constant across each voxel cell and jumps at its faces, so
+//! on quantised data (segmented scans, the phantom) its normals step with the
+//! voxels and the surface shades as terraces; the spline's gradient is continuous.
+//! Only the normals change: the values, and so the crossings, stay trilinear
+//! (a smoothing of the values would move thin features, such as the phantom's
+//! skull, below the iso value). Measured on the phantom at 128 voxels
+//! (`tests/volume_normals.rs`): neighbouring vertex normals on the crown differ by
+//! 16.7 degrees at the 95th percentile with the spline, 27.0 with the trilinear
+//! slope, and 22.5 with central differences over the voxel grid interpolated
+//! trilinearly (Marching Cubes' normals, the other candidate).
 
 use super::Field;
 use glam::{UVec3, Vec3};
@@ -97,38 +103,35 @@ impl SampledVolume {
         (res as u32).max(1)
     }
 
-    /// The gradient of the voxel values at voxel `(x, y, z)`: central differences
-    /// over its two neighbours along each axis (one-sided at the volume's faces).
-    fn voxel_gradient(&self, x: u32, y: u32, z: u32) -> Vec3 {
-        let last = self.dims - UVec3::ONE;
-        let i = UVec3::new(x, y, z);
-        let mut g = Vec3::ZERO;
-        for a in 0..3 {
-            let (mut lo, mut hi) = (i, i);
-            lo[a] = i[a].saturating_sub(1);
-            hi[a] = (i[a] + 1).min(last[a]);
-            let d = self.voxel(hi.x, hi.y, hi.z) - self.voxel(lo.x, lo.y, lo.z);
-            g[a] = d / ((hi[a] - lo[a]) as f32 * self.spacing[a]);
-        }
-        g
-    }
-
-    /// The voxel gradients ([`SampledVolume::voxel_gradient`]) interpolated
-    /// trilinearly at `p` (clamped into the volume): the gradient of the voxel
-    /// values as scan tools take it, continuous across voxel faces.
-    pub fn smooth_gradient(&self, p: Vec3) -> Vec3 {
+    /// The gradient at `p` of the cubic B-spline whose coefficients are the voxel
+    /// values (the approximating spline: it smooths the voxels with weights 1/6,
+    /// 2/3, 1/6 along each axis), from the 4 x 4 x 4 voxels around `p`, clamped at
+    /// the volume's faces. Continuous with its first derivatives everywhere.
+    pub fn spline_gradient(&self, p: Vec3) -> Vec3 {
         let max = (self.dims - UVec3::ONE).as_vec3();
         let g = ((p - self.origin) / self.spacing).clamp(Vec3::ZERO, max);
-        let i = g.floor().as_uvec3().min(self.dims - UVec3::splat(2));
-        let f = g - i.as_vec3();
+        let i = g.floor().min(max - Vec3::ONE);
+        let f = g - i;
+        let (w, d) = (
+            [0, 1, 2].map(|a| bspline(f[a])),
+            [0, 1, 2].map(|a| dbspline(f[a])),
+        );
+        let last = self.dims.as_ivec3() - glam::IVec3::ONE;
+        let at = |a: usize, k: usize| (i[a] as i32 + k as i32 - 1).clamp(0, last[a]) as u32;
         let mut sum = Vec3::ZERO;
-        for c in 0..8u32 {
-            let d = UVec3::new(c & 1, (c >> 1) & 1, c >> 2);
-            let w = Vec3::select(d.cmpeq(UVec3::ONE), f, Vec3::ONE - f);
-            let v = self.voxel_gradient(i.x + d.x, i.y + d.y, i.z + d.z);
-            sum += v * (w.x * w.y * w.z);
+        for z in 0..4 {
+            for y in 0..4 {
+                for x in 0..4 {
+                    let v = self.voxel(at(0, x), at(1, y), at(2, z));
+                    sum += v * Vec3::new(
+                        d[0][x] * w[1][y] * w[2][z],
+                        w[0][x] * d[1][y] * w[2][z],
+                        w[0][x] * w[1][y] * d[2][z],
+                    );
+                }
+            }
         }
-        sum
+        sum / self.spacing
     }
 
     /// The value of the surface term (`iso - value` inside above) and of the
@@ -171,8 +174,8 @@ impl Field for SampledVolume {
         d.max(outside_box)
     }
 
-    /// The voxel gradient ([`SampledVolume::smooth_gradient`], signed so it points
-    /// outward) where the surface term holds; the box's, by central differences
+    /// The spline gradient ([`SampledVolume::spline_gradient`], signed so it
+    /// points outward) where the surface term holds; the box's, by central differences
     /// over a quarter voxel, where the volume's edge closes the surface.
     fn gradient(&self, p: Vec3) -> Vec3 {
         let (d, outside_box) = self.terms(p);
@@ -181,10 +184,33 @@ impl Field for SampledVolume {
             return super::central_difference(|q| self.value(q), p, h);
         }
         match self.inside {
-            Inside::Above => -self.smooth_gradient(p),
-            Inside::Below => self.smooth_gradient(p),
+            Inside::Above => -self.spline_gradient(p),
+            Inside::Below => self.spline_gradient(p),
         }
     }
+}
+
+/// The cubic B-spline's weights of the four voxels around a point at fraction
+/// `t` of the way from the second to the third.
+fn bspline(t: f32) -> [f32; 4] {
+    let s = 1.0 - t;
+    [
+        s * s * s / 6.0,
+        (3.0 * t * t * t - 6.0 * t * t + 4.0) / 6.0,
+        (-3.0 * t * t * t + 3.0 * t * t + 3.0 * t + 1.0) / 6.0,
+        t * t * t / 6.0,
+    ]
+}
+
+/// The derivatives of [`bspline`]'s weights with respect to `t`.
+fn dbspline(t: f32) -> [f32; 4] {
+    let s = 1.0 - t;
+    [
+        -s * s / 2.0,
+        (3.0 * t * t - 4.0 * t) / 2.0,
+        (-3.0 * t * t + 2.0 * t + 1.0) / 2.0,
+        t * t / 2.0,
+    ]
 }
 
 #[cfg(test)]
@@ -230,36 +256,37 @@ mod tests {
     }
 
     #[test]
-    fn the_voxel_gradient_is_exact_on_a_ramp_and_continuous_across_a_step() {
-        // A linear ramp: central differences are exact, even one-sided at the faces.
+    fn the_spline_gradient_is_exact_on_a_ramp_and_continuous_across_a_step() {
+        // A linear ramp: the spline reproduces it away from the clamped faces.
         let spacing = Vec3::new(0.5, 1.0, 2.0);
-        let ramp = volume_of(UVec3::new(5, 4, 3), spacing, |v| {
+        let ramp = volume_of(UVec3::new(6, 6, 6), spacing, |v| {
             (v * spacing).dot(Vec3::new(1.0, -2.0, 0.25))
         });
-        for p in [
-            Vec3::new(0.3, 1.7, 2.2),
-            Vec3::ZERO,
-            Vec3::new(2.0, 3.0, 4.0),
+        for v in [
+            Vec3::new(2.3, 2.7, 2.2),
+            Vec3::splat(2.0),
+            Vec3::new(3.0, 2.5, 2.9),
         ] {
-            let g = ramp.smooth_gradient(p);
-            assert!((g - Vec3::new(1.0, -2.0, 0.25)).length() < 1e-5, "{p}: {g}");
+            let g = ramp.spline_gradient(v * spacing);
+            assert!((g - Vec3::new(1.0, -2.0, 0.25)).length() < 1e-4, "{v}: {g}");
         }
         // A step from 0 to 1 between x = 3 and 4: the trilinear slope is 1 inside
-        // that voxel cell and 0 beside it; the voxel gradient rises and falls
-        // continuously over two voxels on either side.
+        // that voxel cell and 0 beside it; the spline's rises and falls
+        // continuously over two voxels on either side, peaking between them.
         let step = volume_of(UVec3::new(8, 3, 3), Vec3::ONE, |v| {
             (v.x >= 4.0) as u8 as f32
         });
-        let at = |x: f32| step.smooth_gradient(Vec3::new(x, 1.0, 1.0)).x;
-        assert_eq!((at(2.0), at(3.0), at(4.0), at(5.0)), (0.0, 0.5, 0.5, 0.0));
-        assert!((at(3.5) - 0.5).abs() < 1e-6 && (at(2.5) - 0.25).abs() < 1e-6);
+        let at = |x: f32| step.spline_gradient(Vec3::new(x, 1.0, 1.0)).x;
+        assert_eq!((at(1.0), at(6.0)), (0.0, 0.0));
+        assert!((at(3.5) - 0.75).abs() < 1e-6, "{}", at(3.5));
+        assert!((at(3.0) - 0.5).abs() < 1e-6, "{}", at(3.0));
         for i in 0..70 {
             let x = i as f32 * 0.1;
-            assert!((at(x + 0.01) - at(x)).abs() < 0.006, "jump at x = {x}");
+            assert!((at(x + 0.01) - at(x)).abs() < 0.01, "jump at x = {x}");
         }
         // The field's gradient points outward: down the values, inside above.
-        let inward = step.gradient(Vec3::new(3.5, 1.0, 1.0));
-        assert!(inward.x < 0.0, "{inward}");
+        let out = step.gradient(Vec3::new(3.5, 1.0, 1.0));
+        assert!(out.x < 0.0, "{out}");
     }
 
     #[test]
