@@ -5,6 +5,7 @@
 mod common;
 
 use common::{cat, dir, kdcontour, refused, s};
+use std::path::PathBuf;
 
 /// The `"res"` of a `--json` line.
 fn json_res(out: &str) -> u64 {
@@ -12,12 +13,19 @@ fn json_res(out: &str) -> u64 {
     v["res"].as_u64().unwrap()
 }
 
+/// A phantom of `res`^3 voxels written by the command into a fresh directory
+/// `name`: the directory and the file.
+fn phantom(name: &str, res: &str) -> (PathBuf, PathBuf) {
+    let d = dir(name);
+    let head = d.join("head.nii");
+    let (code, _, err) = kdcontour(&["phantom", "--res", res, "--out", s(&head)]);
+    assert_eq!(code, 0, "{err}");
+    (d, head)
+}
+
 #[test]
 fn a_volume_meshes_at_one_cell_per_voxel_unless_res_is_given() {
-    let d = dir("native");
-    let head = d.join("head.nii");
-    let (code, _, err) = kdcontour(&["phantom", "--res", "40", "--out", s(&head)]);
-    assert_eq!(code, 0, "{err}");
+    let (d, head) = phantom("native", "40");
     let mesh = ["mesh", "--volume", s(&head), "--iso", "1.5", "--json"];
     // 40 voxels per axis span 39 voxel steps: 39 cells along the longest side.
     let (code, out, err) = kdcontour(&cat(&mesh, &["--threshold", "-1"]));
@@ -38,10 +46,7 @@ fn a_volume_meshes_at_one_cell_per_voxel_unless_res_is_given() {
 
 #[test]
 fn a_native_grid_over_the_budget_is_refused_with_the_res_that_fits() {
-    let d = dir("native-budget");
-    let head = d.join("head.nii");
-    let (code, _, err) = kdcontour(&["phantom", "--res", "128", "--out", s(&head)]);
-    assert_eq!(code, 0, "{err}");
+    let (d, head) = phantom("native-budget", "128");
     // 8 MiB of voxels load within 40 MB; their native grid of 129^3 cells does not
     // fit in what is left.
     let mesh = ["mesh", "--volume", s(&head), "--iso", "1.5"];
