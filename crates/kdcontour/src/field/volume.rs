@@ -89,7 +89,8 @@ impl SampledVolume {
     /// Cells along the longest side that make one cell per voxel: a grid cell as
     /// wide as the finest voxel spacing (cells are cubic, so an anisotropic scan
     /// gets its finest spacing along every axis). A count within a thousandth of a
-    /// whole number is taken as that number.
+    /// whole number is taken as that number; past the grid's limit it is capped at
+    /// one more than the limit, which the grid refuses.
     pub fn native_res(&self) -> u32 {
         let (lo, hi) = self.bounds();
         let cells = (hi - lo).max_element() / self.spacing.min_element();
@@ -99,8 +100,9 @@ impl SampledVolume {
         } else {
             cells.ceil()
         };
-        // Saturating: an absurd spacing gives a count the grid then refuses.
-        (res as u32).max(1)
+        // Capped just past the grid's limit: an absurd spacing gives a count the
+        // grid then refuses, never one that overflows.
+        (res.min(crate::grid::MAX_CELLS_PER_AXIS as f32 + 1.0) as u32).max(1)
     }
 
     /// The gradient at `p` of the cubic B-spline whose coefficients are the voxel
