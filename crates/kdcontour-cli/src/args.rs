@@ -155,8 +155,13 @@ impl Input {
 /// Options `mesh` and `compare` share.
 #[derive(clap::Args)]
 pub struct RunArgs {
-    /// Cells per axis (along the longest side for volumes and meshes).
-    #[arg(long, default_value_t = 64)]
+    /// Cells per axis (along the longest side for volumes and meshes) [default:
+    /// one cell per voxel for volumes, 64 for everything else].
+    #[arg(long = "res", value_name = "RES")]
+    asked_res: Option<u32>,
+    /// The resolution meshed at: `--res`, or the default for the input, once
+    /// [`RunArgs::prepare`] has seen it.
+    #[arg(skip)]
     pub res: u32,
     /// Error threshold in squared cells (negative = uniform Dual Marching Cubes).
     #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
@@ -184,8 +189,10 @@ pub struct RunArgs {
 impl RunArgs {
     /// Checks the threshold, loads the input and fits its grid: the set-up `mesh`
     /// and `compare` share. The grid's build gets what is left of the budget once
-    /// the input is held.
-    pub fn prepare(&self, input: &Input) -> Result<(Loaded, Grid, Settings), String> {
+    /// the input is held. Sets [`RunArgs::res`]: `--res`, else one cell per voxel
+    /// for a volume (refused before anything is allocated, with the `--res` that
+    /// fits, when that grid is over the budget), else 64.
+    pub fn prepare(&mut self, input: &Input) -> Result<(Loaded, Grid, Settings), String> {
         if !self.threshold.is_finite() {
             return Err(format!(
                 "--threshold must be a finite number, got {}",
@@ -201,8 +208,12 @@ impl RunArgs {
         for w in &loaded.warnings {
             eprintln!("warning: {w}");
         }
-        let grid = loaded.grid(self.res).map_err(|e| e.to_string())?;
         let left = budget.less(loaded.held_bytes);
+        self.res = self.asked_res.or(loaded.native_res).unwrap_or(DEFAULT_RES);
+        let grid = loaded.grid(self.res).map_err(|e| e.to_string())?;
+        if self.asked_res.is_none() {
+            check_native(&loaded, &grid, self.res, left)?;
+        }
         Ok((
             loaded,
             grid,
@@ -224,6 +235,50 @@ impl RunArgs {
             Checks::all(field, grid)
         }
     }
+}
+
+/// Cells per axis of scenes and meshes when `--res` is not given.
+const DEFAULT_RES: u32 = 64;
+
+/// Refuses a volume's native-resolution grid (`res` cells along its longest side)
+/// that would not fit in `left` bytes, before anything is allocated, naming the
+/// finest `--res` that fits.
+fn check_native(loaded: &Loaded, grid: &Grid, res: u32, left: Budget) -> Result<(), String> {
+    let needed = kdcontour::hermite::estimate_bytes(grid);
+    if grid.validate().is_err() || needed <= left.get() {
+        return Ok(()); // the build says what is wrong with an invalid grid
+    }
+    let fits = |r: u32| {
+        loaded
+            .grid(r)
+            .is_ok_and(|g| kdcontour::hermite::estimate_bytes(&g) <= left.get())
+    };
+    // The estimate grows with res: the finest fitting res by bisection.
+    let (mut lo, mut hi) = (0, res);
+    while hi - lo > 1 {
+        let mid = lo + (hi - lo) / 2;
+        if fits(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let fix = if lo >= 1 && fits(lo) {
+        format!("pass --res {lo} or less to mesh it coarser, or raise --memory-budget")
+    } else {
+        "raise --memory-budget".to_string()
+    };
+    let c = grid.cells;
+    Err(format!(
+        "{}: at its native resolution (one cell per voxel, res {res}: {}x{}x{} cells) the grid needs about {}, over the {} --memory-budget leaves once the volume's {} are held; {fix}",
+        loaded.name,
+        c.x,
+        c.y,
+        c.z,
+        Size(needed),
+        Size(left.get()),
+        Size(loaded.held_bytes)
+    ))
 }
 
 /// The field a capped mesh of `field` on `grid` is checked against (the field cut

@@ -14,7 +14,7 @@ pub struct Compare {
     run: RunArgs,
 }
 
-pub fn run(args: Compare) -> Result<(), String> {
+pub fn run(mut args: Compare) -> Result<(), String> {
     let (loaded, grid, settings) = args.run.prepare(&args.input)?;
     let (scene, field) = (&loaded.name, &*loaded.field);
     let capped = crate::args::capped(field, &grid, &settings);

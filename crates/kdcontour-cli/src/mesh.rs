@@ -27,7 +27,7 @@ pub struct Mesh {
 pub fn run(args: Mesh) -> Result<(), String> {
     let Mesh {
         input,
-        run,
+        mut run,
         mesher,
         out,
     } = args;

@@ -80,9 +80,13 @@ fn silent_garbage_is_now_an_error() {
     .unwrap();
     let r = s(&ramp);
     let base = ["mesh", "--volume", r, "--dims", "10,10,10", "--type", "u8"];
-    // An axis thinner than 2 cells at the default res.
+    // An axis thinner than 2 cells at res 64 (the default res, one cell per
+    // voxel, gives every axis a cell per voxel of the finest spacing).
     refused(
-        &cat(&base, &["--iso", "100", "--spacing", "100,1,1"]),
+        &cat(
+            &base,
+            &["--iso", "100", "--spacing", "100,1,1", "--res", "64"],
+        ),
         &["ramp.raw", "0.64 cells", "use res 200 or more"],
     );
     // --iso outside the data: an error, and no mesh written.
@@ -115,7 +119,7 @@ fn silent_garbage_is_now_an_error() {
         &["--iso", "outside the voxel values (0 to 249)"],
     );
     assert!(!out.exists());
-    // 256,256,4 voxels at the default res: the thin axis gets 0.75 cells.
+    // 256,256,4 voxels at res 64: the thin axis gets 0.75 cells.
     let flat = d.join("flat.raw");
     let ramp: Vec<u8> = (0..256 * 256 * 4).map(|i| (i % 250) as u8).collect();
     std::fs::write(&flat, ramp).unwrap();
@@ -130,6 +134,8 @@ fn silent_garbage_is_now_an_error() {
             "u8",
             "--iso",
             "3",
+            "--res",
+            "64",
         ],
         &["flat.raw", "0.75 cells", "use res 170 or more"],
     );

@@ -26,6 +26,10 @@ pub struct Input {
     /// Whether the field exists only inside `bounds` (a volume), so every axis of
     /// the box needs cells of its own.
     pub sampled: bool,
+    /// Cells along the longest side that give one cell per voxel (volumes, see
+    /// [`SampledVolume::native_res`]): the resolution a volume is meshed at unless
+    /// one is asked for; `None` for other inputs.
+    pub native_res: Option<u32>,
     /// Bytes the field holds (a volume's voxels, a mesh's triangles and tree; 0
     /// for scenes): taken off the budget of whatever meshes it
     /// ([`Budget::less`]), so one budget covers the whole command.
@@ -47,6 +51,7 @@ impl Input {
             field: s.field,
             bounds: None,
             sampled: false,
+            native_res: None,
             held_bytes: 0,
             warnings: Vec::new(),
         })
@@ -63,6 +68,7 @@ impl Input {
             field: Box::new(field),
             bounds: None,
             sampled: false,
+            native_res: None,
             held_bytes: 0,
             warnings: Vec::new(),
         })
@@ -73,6 +79,7 @@ impl Input {
         let bounds = volume.bounds();
         Input {
             name: path.display().to_string(),
+            native_res: Some(volume.native_res()),
             held_bytes: volume.data.capacity() as u64 * 4,
             field: Box::new(volume),
             bounds: Some(bounds),
@@ -107,6 +114,7 @@ impl Input {
             field: Box::new(sdf),
             bounds: Some(bounds),
             sampled: false,
+            native_res: None,
             warnings,
         })
     }
@@ -242,6 +250,7 @@ mod tests {
         let input = Input::volume(Path::new("head.nii"), vol);
         assert_eq!(input.name, "head.nii");
         assert_eq!(input.bounds, Some((lo, hi)));
+        assert_eq!(input.native_res, Some(8));
         let g = input.grid(16).unwrap();
         assert_eq!(g, Grid::fit(lo, hi, 16));
         assert_eq!(g.cells, UVec3::splat(18));

@@ -33,6 +33,7 @@ pub fn load(target: &str, data: &[u8]) -> Result<Input, String> {
         field,
         bounds,
         sampled,
+        native_res: None,
         held_bytes: 0,
         warnings: Vec::new(),
     };
