@@ -1,8 +1,11 @@
 //! A scanned volume as a surface: a raw voxel file or a NIfTI-1 scan (`.nii`,
 //! `.nii.gz`), or, with no file, a generated CT of the 3-D Shepp-Logan head phantom.
 //! The iso-value slider moves the surface through the scan's values (skull,
-//! brain, ventricles); every change re-meshes the chunks in the background while
-//! the old mesh stays on screen.
+//! brain, ventricles); every change re-meshes the chunks in the background from
+//! the voxels already in memory (the file is read once) while the old mesh stays
+//! on screen. Meshed at one cell per voxel, as the CLI, unless `--res` says
+//! otherwise; normals come from the cubic B-spline gradient over the voxels, so
+//! they do not terrace.
 //!
 //! Keys: WASD / E / Q and arrows or middle mouse to fly. F1 hides the panel.
 //!
@@ -52,6 +55,9 @@ struct Args {
     /// Phantom voxels per side.
     #[arg(long, default_value_t = 96)]
     phantom: u32,
+    /// Cells along the longest side (default: one per voxel, as the CLI).
+    #[arg(long)]
+    res: Option<u32>,
     #[command(flatten)]
     shot: ShotArgs,
 }
@@ -62,6 +68,8 @@ struct Scan {
     name: String,
     range: (f32, f32),
     iso: f32,
+    /// Cells along the longest side.
+    cells: u32,
     entity: Option<Entity>,
 }
 
@@ -93,9 +101,6 @@ fn load(args: &Args) -> Result<(SampledVolume, String), String> {
     Ok((v, name))
 }
 
-/// Cells along the volume's longest side.
-const GRID_CELLS: u32 = 128;
-
 fn main() {
     let args = Args::parse();
     let (volume, name) = load(&args).unwrap_or_else(|e| common::fail(e));
@@ -115,14 +120,21 @@ fn main() {
     if let Err(e) = volume.check_iso(iso) {
         common::fail(format!("{name}: --iso {iso}: {e}"));
     }
-    // Every axis needs two cells of the grid the volume is meshed on.
+    // One cell per voxel unless --res says otherwise; every axis needs two
+    // cells of the grid the volume is meshed on.
+    let grid_cells = args.res.unwrap_or_else(|| volume.native_res());
+    if !(2..=1024).contains(&grid_cells) {
+        common::fail(format!(
+            "{name}: --res must be 2 to 1024 cells along the longest side, got {grid_cells}"
+        ));
+    }
     let (lo, hi) = volume.bounds();
-    let cells = bevy_kdcontour::kdcontour::Grid::covering(lo, hi, GRID_CELLS).cells;
+    let cells = bevy_kdcontour::kdcontour::Grid::covering(lo, hi, grid_cells).cells;
     if cells.min_element() < 2 {
         common::fail(format!(
-            "{name}: the voxels span {:?} units; at {GRID_CELLS} cells along the longest \
-             side that is {cells} cells, and every axis needs at least 2 (check --dims and \
-             --spacing)",
+            "{name}: the voxels span {:?} units; at {grid_cells} cells along the longest \
+             side that is {cells} cells, and every axis needs at least 2 (check --dims, \
+             --spacing and --res)",
             (hi - lo).to_array()
         ));
     }
@@ -143,6 +155,7 @@ fn main() {
         name,
         range,
         iso,
+        cells: grid_cells,
         entity: None,
     })
     .add_systems(Startup, setup)
@@ -166,9 +179,9 @@ fn setup(
 ) {
     let (lo, hi) = scan.volume.bounds();
     let extent = hi - lo;
-    // About 128 cells along the longest side (the grid covering the voxels), in
-    // chunks of 16 cells.
-    let grid = bevy_kdcontour::kdcontour::Grid::covering(lo, hi, GRID_CELLS);
+    // The grid covering the voxels (one cell per voxel by default), in chunks
+    // of 16 cells.
+    let grid = bevy_kdcontour::kdcontour::Grid::covering(lo, hi, scan.cells);
     let cell = grid.cell_size;
     let res = 16;
     let chunks = (grid.cells + UVec3::splat(res - 1)) / res;
