@@ -67,7 +67,9 @@ pub(super) fn face_padis(
     };
     let mut out = Vec::new();
     for cv in b.lo[v]..b.hi(v) {
-        for cu in b.lo[u]..b.hi(u) {
+        // Along a row of cells, jump from padi to padi.
+        let mut cu = b.lo[u];
+        while cu < b.hi(u) {
             let mut cell = [0i64; 3];
             cell[axis] = across;
             cell[u] = cu as i64;
@@ -92,9 +94,10 @@ pub(super) fn face_padis(
                     }
                 }
             };
-            if padi.u[0] == cu && padi.v[0] == cv {
+            if padi.v[0] == cv {
                 out.push(padi);
             }
+            cu = padi.u[1];
         }
     }
     out
