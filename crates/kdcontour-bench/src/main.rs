@@ -439,12 +439,14 @@ fn run(args: &Args, scene_name: &str, res: u32) -> Result<Vec<Row>, String> {
             skeleton_climbing::skeleton_climbing(&h, block).unwrap()
         })
     });
-    push(
-        "skeleton-climbing",
-        &m.unwrap(),
-        ms,
-        format!("block {block}"),
-    );
+    let m = m.map_err(|e| e.to_string())?;
+    rows.push(Row {
+        mesher: "skeleton-climbing",
+        triangles: m.triangle_count(),
+        max_error: check(&m),
+        total_ms: ms,
+        note: format!("block {block}"),
+    });
     Ok(rows)
 }
 

@@ -53,10 +53,13 @@ impl Mesher {
         Mesher::ALL.into_iter().find(|m| m.name() == name)
     }
 
-    /// Whether the threshold matters (skeleton climbing reads only its sign:
-    /// see [`crate::skeleton_climbing::block_for_threshold`]).
+    /// Whether the threshold matters (skeleton climbing reads it as a box size
+    /// limit: [`crate::skeleton_climbing::block_for_threshold`]).
     pub fn adaptive(self) -> bool {
-        matches!(self, Mesher::Octree | Mesher::KdTree)
+        matches!(
+            self,
+            Mesher::Octree | Mesher::KdTree | Mesher::SkeletonClimbing
+        )
     }
 }
 
