@@ -1,6 +1,10 @@
 //! Side by side, in one run on one machine: the k-d tree against the Rust meshers a
 //! user would pick instead, on the same grids.
 //!
+//! `skeleton-climbing` (Adaptive Skeleton Climbing, in the core) samples through
+//! `kdcontour` like ours; its time is sample + Hermite data + meshing, its box size
+//! limit the one `--threshold` picks.
+//!
 //! Every mesher meshes the scene over `[-1, 1]^3` at `res` cells per axis. The
 //! uniform peers (fast-surface-nets, isosurface's Marching Cubes, transvoxel, and
 //! Marching Cubes + meshoptimizer) mesh the same densely sampled grid; their time
@@ -24,7 +28,8 @@ use fidget_core::context::Tree;
 use fidget_core::vm::VmShape;
 use glam::{UVec3, Vec3};
 use kdcontour::{
-    hermite, mc, scenes, validate, Field, Grid, IndexedMesh, KdTree, Partition, Settings,
+    hermite, mc, scenes, skeleton_climbing, validate, Field, Grid, IndexedMesh, KdTree, Partition,
+    Settings,
 };
 use std::time::Instant;
 
@@ -424,6 +429,24 @@ fn run(args: &Args, scene_name: &str, res: u32) -> Result<Vec<Row>, String> {
             }
         }
     }
+
+    // Adaptive Skeleton Climbing from the same Hermite data as ours, its box size
+    // limit picked by the threshold (`block_for_threshold`).
+    let block = skeleton_climbing::block_for_threshold(args.threshold);
+    let (ms, m) = time(args.reps, || {
+        settings.run(|| {
+            let h = hermite::Hermite::from_field(field, &grid, &settings).unwrap();
+            skeleton_climbing::skeleton_climbing(&h, block).unwrap()
+        })
+    });
+    let m = m.map_err(|e| e.to_string())?;
+    rows.push(Row {
+        mesher: "skeleton-climbing",
+        triangles: m.triangle_count(),
+        max_error: check(&m),
+        total_ms: ms,
+        note: format!("block {block}"),
+    });
     Ok(rows)
 }
 
@@ -523,7 +546,8 @@ mod tests {
                 "transvoxel",
                 "mc+meshopt",
                 "fidget-mdc",
-                "kdtree-at-fidget-error"
+                "kdtree-at-fidget-error",
+                "skeleton-climbing"
             ]
         );
         let full = rows[1].triangles;
@@ -543,6 +567,8 @@ mod tests {
         // At fidget's error: no worse than it, from a coarser or equal threshold.
         assert!(rows[8].max_error <= rows[7].max_error);
         assert!(rows[8].triangles < full);
+        // Skeleton climbing's boxes make fewer triangles than the uniform mesh.
+        assert!(rows[9].triangles < full);
     }
 
     #[test]

@@ -284,7 +284,16 @@ fn compare_prints_four_meshers_and_json_lines() {
         .iter()
         .map(|v| v["mesher"].as_str().unwrap())
         .collect();
-    assert_eq!(names, ["marching-cubes", "dmc", "octree", "kdtree"]);
+    assert_eq!(
+        names,
+        [
+            "marching-cubes",
+            "dmc",
+            "octree",
+            "kdtree",
+            "skeleton-climbing"
+        ]
+    );
     for v in &lines {
         assert_eq!(v["watertight"], true, "{v}");
         assert_eq!(v["manifold"], true, "{v}");
@@ -399,7 +408,7 @@ fn volumes_and_meshes_from_the_command_line() {
         "--json",
     ]);
     assert_eq!(code, 0, "{err}");
-    assert_eq!(out.lines().count(), 4);
+    assert_eq!(out.lines().count(), 5);
     let (code, _, err) = kdcontour(&[
         "mesh", "--volume", r, "--dims", "16,16,15", "--type", "u8", "--iso", "100",
     ]);

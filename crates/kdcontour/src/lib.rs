@@ -114,6 +114,7 @@ pub mod meshers;
 pub mod qef;
 pub mod scenes;
 pub mod settings;
+pub mod skeleton_climbing;
 pub mod validate;
 pub mod world;
 

@@ -21,25 +21,30 @@ pub enum Mesher {
     Octree,
     /// The discrete k-d tree.
     KdTree,
+    /// Adaptive Skeleton Climbing: size-maximal simple boxes
+    /// ([`crate::skeleton_climbing`]).
+    SkeletonClimbing,
 }
 
 impl Mesher {
     /// All meshers, coarsest idea first.
-    pub const ALL: [Mesher; 4] = [
+    pub const ALL: [Mesher; 5] = [
         Mesher::MarchingCubes,
         Mesher::UniformDmc,
         Mesher::Octree,
         Mesher::KdTree,
+        Mesher::SkeletonClimbing,
     ];
 
     /// The name used in reports and JSON (`marching-cubes`, `dmc`, `octree`,
-    /// `kdtree`).
+    /// `kdtree`, `skeleton-climbing`).
     pub fn name(self) -> &'static str {
         match self {
             Mesher::MarchingCubes => "marching-cubes",
             Mesher::UniformDmc => "dmc",
             Mesher::Octree => "octree",
             Mesher::KdTree => "kdtree",
+            Mesher::SkeletonClimbing => "skeleton-climbing",
         }
     }
 
@@ -48,9 +53,13 @@ impl Mesher {
         Mesher::ALL.into_iter().find(|m| m.name() == name)
     }
 
-    /// Whether the threshold matters.
+    /// Whether the threshold matters (skeleton climbing reads it as a box size
+    /// limit: [`crate::skeleton_climbing::block_for_threshold`]).
     pub fn adaptive(self) -> bool {
-        matches!(self, Mesher::Octree | Mesher::KdTree)
+        matches!(
+            self,
+            Mesher::Octree | Mesher::KdTree | Mesher::SkeletonClimbing
+        )
     }
 }
 
@@ -92,7 +101,9 @@ pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Sam
     })?
 }
 
-/// Meshes sampled data with `mesher` at `threshold` (ignored by uniform meshers).
+/// Meshes sampled data with `mesher` at `threshold` (ignored by uniform meshers;
+/// skeleton climbing maps it to a block size with
+/// [`crate::skeleton_climbing::block_for_threshold`]).
 pub fn run(
     mesher: Mesher,
     s: &Sampled,
@@ -108,6 +119,9 @@ pub fn run(
         let mesh = match mesher {
             Mesher::MarchingCubes => crate::mc::marching_cubes(&s.hermite),
             Mesher::UniformDmc => crate::dmc::uniform_dmc(&s.hermite),
+            Mesher::SkeletonClimbing => {
+                crate::skeleton_climbing::at_threshold(&s.hermite, threshold)
+            }
             Mesher::Octree | Mesher::KdTree => {
                 let partition = if mesher == Mesher::Octree {
                     Partition::Octree
