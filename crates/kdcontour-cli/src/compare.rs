@@ -33,7 +33,7 @@ pub fn run(mut args: Compare) -> Result<(), String> {
     if !json {
         say!("{scene} at res {res}, threshold {threshold} (errors in cells)");
         say!(
-            "{:<15} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>6} {:>6} {:>6}",
+            "{:<17} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>6} {:>6} {:>6}",
             "mesher",
             "triangles",
             "vertices",
@@ -60,7 +60,7 @@ pub fn run(mut args: Compare) -> Result<(), String> {
             );
         } else {
             say!(
-                "{:<15} {:>10} {:>9} {:>9.4} {:>9.4} {:>7.1}ms {:>7.1}ms {:>7.1}ms {:>6} {:>6} {:>6}",
+                "{:<17} {:>10} {:>9} {:>9.4} {:>9.4} {:>7.1}ms {:>7.1}ms {:>7.1}ms {:>6} {:>6} {:>6}",
                 mesher.name(),
                 r.triangles,
                 r.vertices,
@@ -98,7 +98,7 @@ pub fn run(mut args: Compare) -> Result<(), String> {
 /// run).
 fn print_geometry(reports: &[(&str, kdcontour::MeshReport)]) {
     println!(
-        "{:<15} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9} {:>7}",
+        "{:<17} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9} {:>7}",
         "mesher",
         "zero-area",
         "slivers",
@@ -115,7 +115,7 @@ fn print_geometry(reports: &[(&str, kdcontour::MeshReport)]) {
     for (name, r) in reports {
         let (i, d) = (r.intersections.as_ref(), r.distance.as_ref());
         println!(
-            "{:<15} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9} {:>7}",
+            "{:<17} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9} {:>7}",
             name,
             r.zero_area_triangles,
             r.sliver_triangles,
