@@ -21,25 +21,30 @@ pub enum Mesher {
     Octree,
     /// The discrete k-d tree.
     KdTree,
+    /// Boada and Navazo's octree of coplanar Discretized Marching Cubes polygons
+    /// ([`crate::discrete_planes`]).
+    DiscretePlanes,
 }
 
 impl Mesher {
     /// All meshers, coarsest idea first.
-    pub const ALL: [Mesher; 4] = [
+    pub const ALL: [Mesher; 5] = [
         Mesher::MarchingCubes,
         Mesher::UniformDmc,
         Mesher::Octree,
         Mesher::KdTree,
+        Mesher::DiscretePlanes,
     ];
 
     /// The name used in reports and JSON (`marching-cubes`, `dmc`, `octree`,
-    /// `kdtree`).
+    /// `kdtree`, `discrete-planes`).
     pub fn name(self) -> &'static str {
         match self {
             Mesher::MarchingCubes => "marching-cubes",
             Mesher::UniformDmc => "dmc",
             Mesher::Octree => "octree",
             Mesher::KdTree => "kdtree",
+            Mesher::DiscretePlanes => "discrete-planes",
         }
     }
 
@@ -108,6 +113,7 @@ pub fn run(
         let mesh = match mesher {
             Mesher::MarchingCubes => crate::mc::marching_cubes(&s.hermite),
             Mesher::UniformDmc => crate::dmc::uniform_dmc(&s.hermite),
+            Mesher::DiscretePlanes => crate::discrete_planes::discrete_planes(&s.hermite),
             Mesher::Octree | Mesher::KdTree => {
                 let partition = if mesher == Mesher::Octree {
                     Partition::Octree
