@@ -15,8 +15,9 @@ pub struct Mesh {
     input: Input,
     #[command(flatten)]
     run: RunArgs,
-    /// The mesher: `kdtree`, `octree`, `dmc` (uniform Dual Marching Cubes) or
-    /// `marching-cubes`, all on the same Hermite data.
+    /// The mesher: `kdtree`, `octree`, `dmc` (uniform Dual Marching Cubes),
+    /// `marching-cubes` or `discrete-planes` (Boada and Navazo's octree of
+    /// coplanar Discretized Marching Cubes polygons), all on the same Hermite data.
     #[arg(long, default_value = "kdtree")]
     mesher: String,
     /// Write the mesh to this .obj or .ply file.
@@ -110,7 +111,7 @@ fn make(
     let partition = match mesher {
         Mesher::KdTree => Partition::KdTree,
         Mesher::Octree => Partition::Octree,
-        Mesher::MarchingCubes | Mesher::UniformDmc => {
+        Mesher::MarchingCubes | Mesher::UniformDmc | Mesher::DiscretePlanes => {
             let sampled = meshers::sample(field, grid, settings)?;
             let (mesh, times) = meshers::run(mesher, &sampled, threshold, settings)?;
             return Ok((mesh, times, None));

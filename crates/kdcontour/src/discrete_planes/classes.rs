@@ -20,7 +20,6 @@
 //! not codifiable.
 
 use super::plane::{Facet, Point};
-use std::collections::{HashMap, HashSet};
 
 /// The class `K` of a terminal surface node.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -76,8 +75,9 @@ pub struct Code {
 
 /// The code of a node whose surface is `pieces` (facets of its children, or of
 /// its own contour loops), or `None` when it is not codifiable.
-pub(crate) fn codify(mut pieces: Vec<Facet>, pts: &[Point]) -> Option<Code> {
-    pieces.sort_by(|a, b| a.plane.cmp(&b.plane));
+pub(crate) fn codify(pieces: &[&Facet], pts: &[Point]) -> Option<Code> {
+    let mut pieces = pieces.to_vec();
+    pieces.sort_by_key(|f| f.plane);
     let mut facets: Vec<Facet> = Vec::new();
     for group in pieces.chunk_by(|a, b| a.plane == b.plane) {
         if facets.len() == 4 {
@@ -94,22 +94,21 @@ pub(crate) fn codify(mut pieces: Vec<Facet>, pts: &[Point]) -> Option<Code> {
         facets.push(Facet { plane, ring });
     }
     // Folds: edges one plane's polygon runs one way and another's the other way.
-    let mut owner = HashMap::new();
-    for (k, f) in facets.iter().enumerate() {
-        for (a, b) in ring_edges(&f.ring) {
-            owner.insert((a, b), k);
-        }
-    }
+    let mut owned: Vec<(u32, u32, usize)> = facets
+        .iter()
+        .enumerate()
+        .flat_map(|(k, f)| ring_edges(&f.ring).map(move |(a, b)| (a, b, k)))
+        .collect();
+    owned.sort_unstable();
     let mut folded = [[false; 4]; 4];
     let mut folds = 0;
-    for (k, f) in facets.iter().enumerate() {
-        for (a, b) in ring_edges(&f.ring) {
-            if let Some(&o) = owner.get(&(b, a)) {
-                if o != k && !folded[o][k] {
-                    folded[o][k] = true;
-                    folded[k][o] = true;
-                    folds += 1;
-                }
+    for &(a, b, k) in &owned {
+        let i = owned.partition_point(|&(x, y, _)| (x, y) < (b, a));
+        if let Some(&(x, y, o)) = owned.get(i) {
+            if (x, y) == (b, a) && o != k && !folded[o][k] {
+                folded[o][k] = true;
+                folded[k][o] = true;
+                folds += 1;
             }
         }
     }
@@ -132,30 +131,31 @@ fn ring_edges(ring: &[u32]) -> impl Iterator<Item = (u32, u32)> + '_ {
 /// The boundary of the union of coplanar facets that share edges: their edges
 /// less those run both ways, walked from the smallest vertex id. `None` unless
 /// that boundary is one simple ring (the facets are one disk).
-fn union(group: &[Facet]) -> Option<Vec<u32>> {
-    let mut edges = HashSet::new();
-    for f in group {
-        for (a, b) in ring_edges(&f.ring) {
-            if !edges.remove(&(b, a)) && !edges.insert((a, b)) {
-                return None;
-            }
-        }
+fn union(group: &[&Facet]) -> Option<Vec<u32>> {
+    let mut all: Vec<(u32, u32)> = group.iter().flat_map(|f| ring_edges(&f.ring)).collect();
+    all.sort_unstable();
+    if all.windows(2).any(|w| w[0] == w[1]) {
+        return None; // an edge run twice the same way: not one oriented surface
     }
-    let mut next = HashMap::with_capacity(edges.len());
-    for &(a, b) in &edges {
-        if next.insert(a, b).is_some() {
-            return None; // two boundary edges leave one vertex: a pinch
-        }
+    let has = |e: (u32, u32)| all.binary_search(&e).is_ok();
+    // The boundary, sorted by first vertex: at most one edge may leave a vertex.
+    let next: Vec<(u32, u32)> = all.iter().copied().filter(|&(a, b)| !has((b, a))).collect();
+    if next.is_empty() || next.windows(2).any(|w| w[0].0 == w[1].0) {
+        return None; // no boundary, or a pinch
     }
-    let start = *next.keys().min()?;
+    let after = |v: u32| {
+        let i = next.partition_point(|&(a, _)| a < v);
+        next.get(i).filter(|&&(a, _)| a == v).map(|&(_, b)| b)
+    };
+    let start = next[0].0;
     let mut ring = vec![start];
-    let mut v = next[&start];
+    let mut v = after(start)?;
     while v != start {
         if ring.len() >= next.len() {
             return None;
         }
         ring.push(v);
-        v = *next.get(&v)?;
+        v = after(v)?;
     }
     (ring.len() == next.len()).then_some(ring)
 }
@@ -173,11 +173,11 @@ mod tests {
     fn four_coplanar_squares_merge_into_one_face() {
         let pts = square();
         let quads = [[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6], [4, 5, 8, 7]];
-        let pieces = quads
+        let pieces: Vec<Facet> = quads
             .iter()
             .map(|q| Facet::new(q.to_vec(), &pts).unwrap())
             .collect();
-        let code = codify(pieces, &pts).expect("one convex face");
+        let code = codify(&pieces.iter().collect::<Vec<_>>(), &pts).expect("one convex face");
         assert_eq!(code.class, Class::Face);
         assert_eq!(code.facets.len(), 1);
         // The boundary keeps the collinear midpoints 1, 5, 7, 3: neighbours may
@@ -189,11 +189,11 @@ mod tests {
     fn an_l_shape_is_not_convex_and_not_codifiable() {
         let pts = square();
         let quads = [[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6]];
-        let pieces = quads
+        let pieces: Vec<Facet> = quads
             .iter()
             .map(|q| Facet::new(q.to_vec(), &pts).unwrap())
             .collect();
-        assert!(codify(pieces, &pts).is_none());
+        assert!(codify(&pieces.iter().collect::<Vec<_>>(), &pts).is_none());
     }
 
     #[test]
@@ -209,7 +209,7 @@ mod tests {
         ];
         let roof = |a: Vec<u32>, b: Vec<u32>| {
             codify(
-                vec![Facet::new(a, &pts).unwrap(), Facet::new(b, &pts).unwrap()],
+                &[&Facet::new(a, &pts).unwrap(), &Facet::new(b, &pts).unwrap()],
                 &pts,
             )
         };
@@ -219,9 +219,9 @@ mod tests {
         // band of two.
         let pts2: Vec<Point> = pts.iter().chain(&[[1, 0, 1], [1, 1, 1]]).copied().collect();
         let b = codify(
-            vec![
-                Facet::new(vec![0, 1, 4, 3], &pts2).unwrap(),
-                Facet::new(vec![6, 2, 5, 7], &pts2).unwrap(),
+            &[
+                &Facet::new(vec![0, 1, 4, 3], &pts2).unwrap(),
+                &Facet::new(vec![6, 2, 5, 7], &pts2).unwrap(),
             ],
             &pts2,
         )

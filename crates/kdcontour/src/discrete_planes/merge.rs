@@ -13,6 +13,7 @@
 
 use super::classes::{codify, Code};
 use super::output::Polygon;
+use super::plane::Facet;
 use super::Stats;
 use rayon::prelude::*;
 
@@ -87,12 +88,8 @@ fn merge_children(
     pts: &[super::plane::Point],
 ) -> (Node, Vec<Code>) {
     if children.iter().all(Option::is_some) {
-        let pieces = children
-            .iter()
-            .flatten()
-            .flat_map(|c| c.facets.iter().cloned())
-            .collect();
-        if let Some(code) = codify(pieces, pts) {
+        let pieces: Vec<&Facet> = children.iter().flatten().flat_map(|c| &c.facets).collect();
+        if let Some(code) = codify(&pieces, pts) {
             return ((key, Some(code)), Vec::new());
         }
     }
