@@ -78,11 +78,11 @@ pub struct Code {
 pub(crate) fn codify(pieces: &[&Facet], pts: &[Point]) -> Option<Code> {
     let mut pieces = pieces.to_vec();
     pieces.sort_by_key(|f| f.plane);
+    if pieces.chunk_by(|a, b| a.plane == b.plane).nth(4).is_some() {
+        return None; // five planes or more
+    }
     let mut facets: Vec<Facet> = Vec::new();
     for group in pieces.chunk_by(|a, b| a.plane == b.plane) {
-        if facets.len() == 4 {
-            return None;
-        }
         let plane = group[0].plane;
         let ring = match group {
             [one] => one.ring.clone(),

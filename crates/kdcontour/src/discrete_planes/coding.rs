@@ -11,11 +11,12 @@
 //! have but other ambiguity rules can make, leaves its cell non-codifiable.
 
 use super::classes::{codify, Code};
-use super::plane::{Facet, Point};
-use crate::cell::CellTables;
+use super::plane::{dot, Facet, Plane, Point};
+use crate::cell::{corner_offset, edge_corners, CellTables};
 use crate::hermite::{ActiveCell, Hermite};
 use crate::mc::{edge_key, forward};
 use std::collections::HashMap;
+use std::sync::OnceLock;
 
 /// What one cell holds: its code, or (when it is not codifiable) its contour
 /// loops, oriented to face outside.
@@ -46,40 +47,87 @@ pub(crate) fn midpoints(h: &Hermite) -> (Vec<Point>, HashMap<u64, u32>) {
     (pts, index)
 }
 
-/// The oriented contour loops of `cell` as vertex ids.
-fn loops(h: &Hermite, cell: &ActiveCell, index: &HashMap<u64, u32>) -> Vec<Vec<u32>> {
-    let l = &CellTables::get().loops[cell.config as usize * 64 + cell.mask as usize];
+/// The contour loops of a cell configuration under a face resolution, as rings
+/// of cell edge numbers oriented to face outside.
+fn unit_loops(config: u8, mask: u8) -> Vec<Vec<u32>> {
+    let l = &CellTables::get().loops[config as usize * 64 + mask as usize];
     (0..l.count as usize)
         .map(|k| {
             let edges = l.edges_of(k);
-            let mut ids: Vec<u32> = edges
-                .iter()
-                .map(|&e| index[&edge_key(&h.grid, cell.coord, e)])
-                .collect();
-            if !forward(cell.config, edges) {
-                ids.reverse();
+            let mut ring: Vec<u32> = edges.iter().map(|&e| e as u32).collect();
+            if !forward(config, edges) {
+                ring.reverse();
             }
-            ids
+            ring
         })
         .collect()
 }
 
-/// Codes the surface of `cell` (its terminal surface node at the finest level).
-pub(crate) fn code_cell(
-    h: &Hermite,
-    cell: &ActiveCell,
-    index: &HashMap<u64, u32>,
-    pts: &[Point],
-) -> CellSurface {
-    let rings = loops(h, cell, index);
+/// The 12 edge midpoints of the cell at the origin, in half-cell units.
+fn unit_midpoints() -> Vec<Point> {
+    (0..12)
+        .map(|e| {
+            let (lo, hi) = edge_corners(e);
+            let (a, b) = (corner_offset(lo), corner_offset(hi));
+            [0, 1, 2].map(|k| (a[k] + b[k]) as i64)
+        })
+        .collect()
+}
+
+/// The code of a configuration on the cell at the origin (rings of edge
+/// numbers), or `None` when it is not codifiable.
+fn unit_code(config: u8, mask: u8, pts: &[Point]) -> Option<Code> {
     let mut facets = Vec::new();
-    for ring in &rings {
-        match (1..=MAX_FACETS_PER_LOOP).find_map(|k| split(ring, pts, k)) {
-            Some(f) => facets.extend(f),
-            None => return Err(rings),
-        }
+    for ring in unit_loops(config, mask) {
+        facets.extend((1..=MAX_FACETS_PER_LOOP).find_map(|k| split(&ring, pts, k))?);
     }
-    codify(&facets.iter().collect::<Vec<_>>(), pts).ok_or(rings)
+    codify(&facets.iter().collect::<Vec<_>>(), pts)
+}
+
+/// The paper's look-up table: the code of every configuration under every
+/// resolution of its ambiguous faces, on the cell at the origin, built once.
+fn table() -> &'static [Option<Code>] {
+    static TABLE: OnceLock<Vec<Option<Code>>> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        let ambiguous = &CellTables::get().ambiguous;
+        let pts = unit_midpoints();
+        (0..256 * 64)
+            .map(|i| {
+                let (config, mask) = ((i / 64) as u8, (i % 64) as u8);
+                let valid = mask & !ambiguous[config as usize] == 0;
+                valid.then(|| unit_code(config, mask, &pts)).flatten()
+            })
+            .collect()
+    })
+}
+
+/// Codes the surface of `cell` (its terminal surface node at the finest level):
+/// the table's code moved to the cell, its planes' `d` shifted by `V . offset`.
+pub(crate) fn code_cell(h: &Hermite, cell: &ActiveCell, index: &HashMap<u64, u32>) -> CellSurface {
+    let id = |e: u32| index[&edge_key(&h.grid, cell.coord, e as u8)];
+    let slot = cell.config as usize * 64 + cell.mask as usize;
+    let Some(code) = &table()[slot] else {
+        return Err(unit_loops(cell.config, cell.mask)
+            .into_iter()
+            .map(|r| r.into_iter().map(id).collect())
+            .collect());
+    };
+    let offset = cell.coord.map(|c| 2 * c as i64);
+    let facets = code
+        .facets
+        .iter()
+        .map(|f| Facet {
+            plane: Plane {
+                normal: f.plane.normal,
+                d: f.plane.d + dot(f.plane.normal, offset),
+            },
+            ring: f.ring.iter().map(|&e| id(e)).collect(),
+        })
+        .collect();
+    Ok(Code {
+        class: code.class,
+        facets,
+    })
 }
 
 /// `ring` cut along diagonals into exactly `pieces` planar convex facets.
@@ -130,54 +178,18 @@ mod tests {
 #[cfg(test)]
 mod table {
     use super::*;
-    use crate::cell::edge_corners;
 
-    /// The 12 edge midpoints of the unit cell, in half-cell units.
-    fn unit_midpoints() -> Vec<Point> {
-        (0..12)
-            .map(|e| {
-                let (lo, hi) = edge_corners(e);
-                let c = |i: usize| [i & 1, (i >> 1) & 1, (i >> 2) & 1].map(|x| x as i64);
-                let (a, b) = (c(lo), c(hi));
-                [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-            })
-            .collect()
-    }
-
-    /// Codes every configuration of one cell under every resolution of its
-    /// ambiguous faces; returns (configurations, codifiable ones, class counts).
-    pub(super) fn survey(
-        which: impl Fn(u8, u8) -> bool,
-    ) -> (usize, usize, HashMap<&'static str, usize>) {
-        let t = CellTables::get();
-        let pts = unit_midpoints();
+    /// Codes every configuration under the face resolutions `which` picks;
+    /// returns (configurations, codifiable ones, class counts).
+    fn survey(which: impl Fn(u8, u8) -> bool) -> (usize, usize, HashMap<&'static str, usize>) {
+        let ambiguous = &CellTables::get().ambiguous;
         let (mut all, mut ok) = (0, 0);
         let mut classes = HashMap::new();
         for config in 1..255u8 {
-            let amb = t.ambiguous[config as usize];
-            for mask in 0..64u8 {
-                if mask & !amb != 0 || !which(mask, amb) {
-                    continue;
-                }
+            let amb = ambiguous[config as usize];
+            for mask in (0..64u8).filter(|&m| m & !amb == 0 && which(m, amb)) {
                 all += 1;
-                let l = &t.loops[config as usize * 64 + mask as usize];
-                let mut facets = Vec::new();
-                let mut fine = true;
-                for k in 0..l.count as usize {
-                    let edges = l.edges_of(k);
-                    let mut ring: Vec<u32> = edges.iter().map(|&e| e as u32).collect();
-                    if !forward(config, edges) {
-                        ring.reverse();
-                    }
-                    match (1..=MAX_FACETS_PER_LOOP).find_map(|k| split(&ring, &pts, k)) {
-                        Some(f) => facets.extend(f),
-                        None => fine = false,
-                    }
-                }
-                let code = fine
-                    .then(|| codify(&facets.iter().collect::<Vec<_>>(), &pts))
-                    .flatten();
-                if let Some(c) = code {
+                if let Some(c) = &table()[config as usize * 64 + mask as usize] {
                     ok += 1;
                     *classes.entry(c.class.symbol()).or_insert(0) += 1;
                 }

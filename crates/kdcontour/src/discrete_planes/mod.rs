@@ -109,7 +109,7 @@ pub fn extract(h: &Hermite) -> Extraction {
         .par_iter()
         .map(|c| {
             let key = c.coord.map(u32::from);
-            (key, coding::code_cell(h, c, &index, &pts))
+            (key, coding::code_cell(h, c, &index))
         })
         .collect();
     let longest = h.grid.cells.max_element().max(1);
