@@ -10,7 +10,8 @@
 //! Marching Cubes + meshoptimizer) mesh the same densely sampled grid; their time
 //! is that sampling plus their meshing. Ours (`kdtree`, `kdtree-full`, `octree`)
 //! sample through `kdcontour` (block skipping, crossings refined on the field) and
-//! build; their time is sample + build + contour. fidget meshes its own expression
+//! build; their time is sample + build + contour. `discrete-planes` (Boada and
+//! Navazo) meshes the same Hermite data; its time is sample + code + merge. fidget meshes its own expression
 //! of the scene (it cannot take a sampled grid), at the octree depth of `res`, and
 //! emits 4 triangles per crossing edge where the others emit 2, so its count is
 //! halved. Where fidget runs, `kdtree-at-fidget-error` is ours at the coarsest
@@ -28,8 +29,8 @@ use fidget_core::context::Tree;
 use fidget_core::vm::VmShape;
 use glam::{UVec3, Vec3};
 use kdcontour::{
-    hermite, mc, scenes, skeleton_climbing, validate, Field, Grid, IndexedMesh, KdTree, Partition,
-    Settings,
+    discrete_planes, hermite, mc, scenes, skeleton_climbing, validate, Field, Grid, IndexedMesh,
+    KdTree, Partition, Settings,
 };
 use std::time::Instant;
 
@@ -447,6 +448,22 @@ fn run(args: &Args, scene_name: &str, res: u32) -> Result<Vec<Row>, String> {
         total_ms: ms,
         note: format!("block {block}"),
     });
+    // Boada and Navazo's discrete planes on the same Hermite data as ours:
+    // sample, then code the cells and merge coplanar ones bottom up.
+    let (ms, dp) = time(args.reps, || {
+        settings.run(|| {
+            hermite::Hermite::from_field(field, &grid, &settings)
+                .map(|h| discrete_planes::extract(&h))
+        })
+    });
+    let dp = dp.and_then(|r| r).map_err(|e| e.to_string())?;
+    rows.push(Row {
+        mesher: "discrete-planes",
+        triangles: dp.mesh.triangle_count(),
+        max_error: check(&dp.mesh),
+        total_ms: ms,
+        note: format!("{} polygons", dp.stats.polygons),
+    });
     Ok(rows)
 }
 
@@ -547,7 +564,8 @@ mod tests {
                 "mc+meshopt",
                 "fidget-mdc",
                 "kdtree-at-fidget-error",
-                "skeleton-climbing"
+                "skeleton-climbing",
+                "discrete-planes"
             ]
         );
         let full = rows[1].triangles;

@@ -1,5 +1,5 @@
-//! `kdcontour compare`: Marching Cubes, uniform DMC, the octree and the k-d tree on
-//! the same samples.
+//! `kdcontour compare`: Marching Cubes, uniform DMC, the octree, the k-d tree and
+//! the discrete-planes octree on the same samples.
 
 use crate::args::{Input, RunArgs};
 use crate::output::json_line;

@@ -16,7 +16,9 @@ pub struct Mesh {
     #[command(flatten)]
     run: RunArgs,
     /// The mesher: `kdtree`, `octree`, `dmc` (uniform Dual Marching Cubes),
-    /// `marching-cubes` or `skeleton-climbing`, all on the same Hermite data.
+    /// `marching-cubes`, `skeleton-climbing` or `discrete-planes` (Boada and
+    /// Navazo's octree of coplanar Discretized Marching Cubes polygons), all on
+    /// the same Hermite data.
     #[arg(long, default_value = "kdtree")]
     mesher: String,
     /// Write the mesh to this .obj or .ply file.
@@ -110,7 +112,10 @@ fn make(
     let partition = match mesher {
         Mesher::KdTree => Partition::KdTree,
         Mesher::Octree => Partition::Octree,
-        Mesher::MarchingCubes | Mesher::UniformDmc | Mesher::SkeletonClimbing => {
+        Mesher::MarchingCubes
+        | Mesher::UniformDmc
+        | Mesher::SkeletonClimbing
+        | Mesher::DiscretePlanes => {
             let sampled = meshers::sample(field, grid, settings)?;
             let (mesh, times) = meshers::run(mesher, &sampled, threshold, settings)?;
             return Ok((mesh, times, None));

@@ -33,7 +33,8 @@
 //!   [`io::volume`] from raw or NIfTI-1 files), [`field::mesh_sdf`] triangle meshes
 //!   (loaded by [`io::mesh`] from OBJ or PLY), or any [`Field`].
 //! - Baselines on the same Hermite data ([`meshers`]): Marching Cubes ([`mc`]),
-//!   uniform Dual Marching Cubes ([`dmc`]) and the octree ([`Partition::Octree`]).
+//!   uniform Dual Marching Cubes ([`dmc`]), the octree ([`Partition::Octree`]) and
+//!   Boada and Navazo's discrete-planes octree ([`discrete_planes`]).
 //!
 //! ## What the mesher guarantees
 //! - **Watertight, 2-manifold, consistently oriented** output for a surface that is
@@ -100,6 +101,7 @@ pub mod boundary;
 pub mod budget;
 pub mod cell;
 pub mod comp;
+pub mod discrete_planes;
 pub mod dmc;
 pub mod edit;
 pub mod error;

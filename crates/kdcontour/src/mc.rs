@@ -4,6 +4,7 @@
 //! the same way and the mesh is watertight.
 
 use crate::cell::{edge_corners, CellTables};
+use crate::grid::Grid;
 use crate::hermite::Hermite;
 use crate::mesh::IndexedMesh;
 use std::collections::HashMap;
@@ -23,14 +24,10 @@ pub fn marching_cubes(h: &Hermite) -> IndexedMesh {
         let loops = &tables.loops[c.config as usize * 64 + c.mask as usize];
         for k in 0..loops.count as usize {
             let edges = loops.edges_of(k);
-            let key = |e: u8| {
-                let e = e as usize;
-                let (lo, _) = edge_corners(e);
-                let o = crate::cell::corner_offset(lo);
-                let p = [0, 1, 2].map(|a| c.coord[a] as u32 + o[a]);
-                3 * grid.corner_index(p[0], p[1], p[2]) as u64 + (e / 4) as u64
-            };
-            let mut ids: Vec<u32> = edges.iter().map(|&e| index[&key(e)]).collect();
+            let mut ids: Vec<u32> = edges
+                .iter()
+                .map(|&e| index[&edge_key(grid, c.coord, e)])
+                .collect();
             if !forward(c.config, edges) {
                 ids.reverse();
             }
@@ -43,6 +40,15 @@ pub fn marching_cubes(h: &Hermite) -> IndexedMesh {
     mesh
 }
 
+/// The [`crate::hermite::EdgeCrossing::key`] of edge `e` of the cell at `coord`.
+pub(crate) fn edge_key(grid: &Grid, coord: [u16; 3], e: u8) -> u64 {
+    let e = e as usize;
+    let (lo, _) = edge_corners(e);
+    let o = crate::cell::corner_offset(lo);
+    let p = [0, 1, 2].map(|a| coord[a] as u32 + o[a]);
+    3 * grid.corner_index(p[0], p[1], p[2]) as u64 + (e / 4) as u64
+}
+
 /// Whether the loop's order makes a polygon facing the outside corners.
 ///
 /// Take the loop's first edge `e` along axis `a` at offsets `(bu, bv)` on the other
@@ -51,7 +57,7 @@ pub fn marching_cubes(h: &Hermite) -> IndexedMesh {
 /// Going from the `u`-face neighbour through `e` to the `v`-face neighbour turns by
 /// `(1 - 2bu)(1 - 2bv) e_a`; the polygon faces the right way when that has the sign
 /// of `e`'s inside-to-outside direction.
-fn forward(config: u8, edges: &[u8]) -> bool {
+pub(crate) fn forward(config: u8, edges: &[u8]) -> bool {
     let e = edges[0] as usize;
     let a = e / 4;
     let u = (a + 1) % 3;

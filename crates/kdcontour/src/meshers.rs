@@ -24,6 +24,9 @@ pub enum Mesher {
     /// Adaptive Skeleton Climbing: size-maximal simple boxes
     /// ([`crate::skeleton_climbing`]).
     SkeletonClimbing,
+    /// Boada and Navazo's octree of coplanar Discretized Marching Cubes polygons
+    /// ([`crate::discrete_planes`]).
+    DiscretePlanes,
 }
 
 impl Mesher {
@@ -34,10 +37,11 @@ impl Mesher {
         Mesher::Octree,
         Mesher::KdTree,
         Mesher::SkeletonClimbing,
+        Mesher::DiscretePlanes,
     ];
 
     /// The name used in reports and JSON (`marching-cubes`, `dmc`, `octree`,
-    /// `kdtree`, `skeleton-climbing`).
+    /// `kdtree`, `skeleton-climbing`, `discrete-planes`).
     pub fn name(self) -> &'static str {
         match self {
             Mesher::MarchingCubes => "marching-cubes",
@@ -45,6 +49,7 @@ impl Mesher {
             Mesher::Octree => "octree",
             Mesher::KdTree => "kdtree",
             Mesher::SkeletonClimbing => "skeleton-climbing",
+            Mesher::DiscretePlanes => "discrete-planes",
         }
     }
 
@@ -122,6 +127,7 @@ pub fn run(
             Mesher::SkeletonClimbing => {
                 crate::skeleton_climbing::at_threshold(&s.hermite, threshold)
             }
+            Mesher::DiscretePlanes => crate::discrete_planes::discrete_planes(&s.hermite),
             Mesher::Octree | Mesher::KdTree => {
                 let partition = if mesher == Mesher::Octree {
                     Partition::Octree
