@@ -1,8 +1,10 @@
-//! One field, three meshers, side by side, from the same samples: Marching Cubes
-//! (left), the octree baseline (middle) and the discrete k-d tree (right), drawn
-//! as wireframes over the shaded surface so the triangles can be counted by eye as
-//! well as in the panel. The threshold slider re-cuts both retained trees without
-//! sampling the field again; the scene box picks any built-in scene.
+//! One field, five meshers, side by side, from the same samples, left to right:
+//! Marching Cubes, Boada and Navazo's discrete planes, Poston, Wong and Heng's
+//! adaptive skeleton climbing, the octree baseline and the discrete k-d tree,
+//! drawn as wireframes over the shaded surface so the triangles can be counted by
+//! eye as well as in the panel. The threshold slider re-cuts both retained trees
+//! (and re-runs skeleton climbing, whose box size follows it) without sampling the
+//! field again; the scene box picks any built-in scene.
 //!
 //! Keys: WASD / E / Q and arrows or middle mouse to fly. F1 hides the panel.
 //!
@@ -17,14 +19,15 @@ use bevy::mesh::PrimitiveTopology;
 use bevy::pbr::wireframe::WireframeConfig;
 use bevy::prelude::*;
 use bevy_kdcontour::kdcontour::kdtree::{self, Partition};
-use bevy_kdcontour::kdcontour::{mc, meshers, scenes, Grid, KdTree, Settings};
+use bevy_kdcontour::kdcontour::meshers::{Mesher, Sampled};
+use bevy_kdcontour::kdcontour::{meshers, scenes, Grid, IndexedMesh, KdTree, Settings};
 use bevy_kdcontour::panel::bevy_egui::{egui, EguiContexts, EguiPrimaryContextPass};
 use bevy_kdcontour::panel::KdContourPanel;
 use bevy_kdcontour::prelude::*;
 use clap::Parser;
 use common::ShotArgs;
 
-/// Marching Cubes, octree and k-d tree on the same grid.
+/// Five meshers on the same grid.
 #[derive(Parser, Debug)]
 struct Args {
     /// Built-in scene (see `kdcontour scenes`).
@@ -40,14 +43,34 @@ struct Args {
     shot: ShotArgs,
 }
 
-/// The three meshes of the current scene.
+/// The meshers shown, left to right, with their labels.
+const SHOWN: [(&str, Mesher); 5] = [
+    ("Marching Cubes", Mesher::MarchingCubes),
+    ("discrete planes", Mesher::DiscretePlanes),
+    ("skeleton climbing", Mesher::SkeletonClimbing),
+    ("octree", Mesher::Octree),
+    ("k-d tree", Mesher::KdTree),
+];
+
+/// One mesher's view.
+struct Row {
+    name: &'static str,
+    mesher: Mesher,
+    /// The retained tree (octree and k-d tree).
+    tree: Option<KdTree>,
+    triangles: usize,
+    mesh: Handle<Mesh>,
+}
+
+/// The meshes of the current scene.
 #[derive(Resource)]
 struct Compare {
     scene: String,
     res: u32,
     threshold: f32,
-    /// (name, retained tree if adaptive, triangles, mesh asset)
-    rows: Vec<(&'static str, Option<KdTree>, usize, Handle<Mesh>)>,
+    rows: Vec<Row>,
+    /// The samples every mesher reads.
+    sampled: Option<Sampled>,
     sample_ms: f64,
     error: Option<String>,
 }
@@ -84,6 +107,7 @@ fn main() {
         res: args.res,
         threshold: args.threshold,
         rows: Vec::new(),
+        sampled: None,
         sample_ms: 0.0,
         error: None,
     })
@@ -104,11 +128,12 @@ fn setup(
     wireframe.default_color = Color::srgb(0.05, 0.05, 0.08);
     let colours = [
         Color::srgb(0.85, 0.55, 0.4),
+        Color::srgb(0.8, 0.7, 0.35),
+        Color::srgb(0.7, 0.5, 0.8),
         Color::srgb(0.55, 0.75, 0.45),
         Color::srgb(0.45, 0.65, 0.9),
     ];
-    let names = ["Marching Cubes", "octree", "k-d tree"];
-    for (i, (name, colour)) in names.into_iter().zip(colours).enumerate() {
+    for (i, ((name, mesher), colour)) in SHOWN.into_iter().zip(colours).enumerate() {
         let handle = meshes.add(Mesh::new(
             PrimitiveTopology::TriangleList,
             RenderAssetUsages::default(),
@@ -122,19 +147,25 @@ fn setup(
                 cull_mode: None,
                 ..default()
             })),
-            Transform::from_xyz((i as f32 - 1.0) * 2.3, 0.0, 0.0),
+            Transform::from_xyz((i as f32 - 2.0) * 2.3, 0.0, 0.0),
         ));
-        cmp.rows.push((name, None, 0, handle));
+        cmp.rows.push(Row {
+            name,
+            mesher,
+            tree: None,
+            triangles: 0,
+            mesh: handle,
+        });
     }
     let (fly, t) =
-        common::FlyCam::looking(Vec3::new(0.0, 1.6, 5.2), Vec3::new(0.0, -0.1, 0.0), 2.0);
+        common::FlyCam::looking(Vec3::new(0.0, 2.6, 8.6), Vec3::new(0.0, -0.2, 0.0), 2.0);
     commands.spawn((Camera3d::default(), fly, t));
     common::spawn_lights(&mut commands);
     rebuild(&mut cmp, &mut meshes, true);
 }
 
-/// Samples the scene once and runs all three meshers (`resample`), or only
-/// re-cuts the two trees at the current threshold.
+/// Samples the scene once and runs every mesher (`resample`), or only redoes
+/// the ones the threshold changes (re-cutting the retained trees).
 fn rebuild(cmp: &mut Compare, meshes: &mut Assets<Mesh>, resample: bool) {
     if resample {
         let scene = match scenes::scene(&cmp.scene) {
@@ -154,24 +185,40 @@ fn rebuild(cmp: &mut Compare, meshes: &mut Assets<Mesh>, resample: bool) {
             }
         };
         cmp.sample_ms = sampled.sample_ms;
-        let h = &sampled.hermite;
-        let mc = mc::marching_cubes(h);
-        cmp.rows[0].2 = mc.triangle_count();
-        if let Some(mut m) = meshes.get_mut(&cmp.rows[0].3) {
-            *m = bevy_kdcontour::to_bevy_mesh(&mc);
+        for row in &mut cmp.rows {
+            row.tree = match row.mesher {
+                Mesher::Octree => Some(kdtree::build_with(&sampled.hermite, Partition::Octree)),
+                Mesher::KdTree => Some(kdtree::build_with(&sampled.hermite, Partition::KdTree)),
+                _ => None,
+            };
         }
-        cmp.rows[1].1 = Some(kdtree::build_with(h, Partition::Octree));
-        cmp.rows[2].1 = Some(kdtree::build_with(h, Partition::KdTree));
+        cmp.sampled = Some(sampled);
         cmp.error = None;
     }
-    for i in 1..3 {
-        let Some(tree) = &cmp.rows[i].1 else { continue };
-        let m = tree.mesh(cmp.threshold);
-        cmp.rows[i].2 = m.triangle_count();
-        if let Some(mut mesh) = meshes.get_mut(&cmp.rows[i].3) {
-            *mesh = bevy_kdcontour::to_bevy_mesh(&m);
+    let Some(sampled) = cmp.sampled.take() else {
+        return;
+    };
+    let threshold = cmp.threshold;
+    for row in &mut cmp.rows {
+        if !resample && !row.mesher.adaptive() {
+            continue;
+        }
+        let mesh: IndexedMesh = match &row.tree {
+            Some(tree) => tree.mesh(threshold),
+            None => match meshers::run(row.mesher, &sampled, threshold, &Settings::default()) {
+                Ok((m, _)) => m,
+                Err(e) => {
+                    cmp.error = Some(format!("{}: {e}", row.name));
+                    continue;
+                }
+            },
+        };
+        row.triangles = mesh.triangle_count();
+        if let Some(mut m) = meshes.get_mut(&row.mesh) {
+            *m = bevy_kdcontour::to_bevy_mesh(&mesh);
         }
     }
+    cmp.sampled = Some(sampled);
 }
 
 fn panel(
@@ -220,11 +267,11 @@ fn panel(
                 ui.strong("triangles");
                 ui.strong("vs MC");
                 ui.end_row();
-                let mc = cmp.rows.first().map(|r| r.2).unwrap_or(0).max(1);
-                for (name, _, tris, _) in &cmp.rows {
-                    ui.label(*name);
-                    ui.label(tris.to_string());
-                    ui.label(format!("{:.2}", *tris as f64 / mc as f64));
+                let mc = cmp.rows.first().map(|r| r.triangles).unwrap_or(0).max(1);
+                for row in &cmp.rows {
+                    ui.label(row.name);
+                    ui.label(row.triangles.to_string());
+                    ui.label(format!("{:.2}", row.triangles as f64 / mc as f64));
                     ui.end_row();
                 }
             });

@@ -31,7 +31,7 @@ pub enum Mesher {
 
 impl Mesher {
     /// All meshers, coarsest idea first.
-    pub const ALL: [Mesher; 5] = [
+    pub const ALL: [Mesher; 6] = [
         Mesher::MarchingCubes,
         Mesher::UniformDmc,
         Mesher::Octree,
