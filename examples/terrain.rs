@@ -67,6 +67,9 @@ struct Args {
     /// Neither load nor save the sculpting.
     #[arg(long)]
     no_save: bool,
+    /// Start walking (as the V key does): a capsule drops from the camera.
+    #[arg(long)]
+    walk: bool,
     #[command(flatten)]
     shot: ShotArgs,
 }
@@ -170,8 +173,11 @@ fn main() {
             toggle_levels,
         )
             .chain(),
-    )
-    .run();
+    );
+    if args.walk {
+        app.insert_resource(common::walk::WalkAtStart);
+    }
+    app.run();
 }
 
 #[derive(Resource)]

@@ -22,6 +22,10 @@ const JUMP: f32 = 6.0;
 #[derive(Resource, Default)]
 pub struct Walking(pub Option<Entity>);
 
+/// Start walking at once (the demo's `--walk`), as if `V` had been pressed.
+#[derive(Resource)]
+pub struct WalkAtStart;
+
 /// Marks the player's capsule.
 #[derive(Component)]
 pub struct Walker;
@@ -32,9 +36,12 @@ pub fn toggle_walk(
     mut commands: Commands,
     keys: Res<ButtonInput<KeyCode>>,
     mut walking: ResMut<Walking>,
+    at_start: Option<Res<WalkAtStart>>,
     cams: Query<&Transform, With<FlyCam>>,
 ) {
-    if !keys.just_pressed(KeyCode::KeyV) {
+    if at_start.is_some() {
+        commands.remove_resource::<WalkAtStart>();
+    } else if !keys.just_pressed(KeyCode::KeyV) {
         return;
     }
     match walking.0.take() {
