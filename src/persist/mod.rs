@@ -8,7 +8,7 @@
 //! refused for any other. A save that cannot be read, or was made for another
 //! field, is never overwritten: the volume runs without it, autosave stays off
 //! for it, and [`PersistFailed`] says why and what to do. Writes are atomic (see
-//! [`file`]), so a crash or a full disk leaves the previous save whole.
+//! [`mod@file`]), so a crash or a full disk leaves the previous save whole.
 //!
 //! Nothing here needs a renderer or a window: saving works in a headless server
 //! ([`crate::headless`]).
