@@ -394,7 +394,12 @@ fn volumes_and_meshes_from_the_command_line() {
         "--json",
     ]);
     assert_eq!(code, 0, "{err}");
-    assert_eq!(out.lines().count(), 5);
+    // One JSON line per mesher.
+    assert_eq!(
+        out.lines().count(),
+        kdcontour::meshers::Mesher::ALL.len(),
+        "{out}"
+    );
     let (code, _, err) = kdcontour(&[
         "mesh", "--volume", r, "--dims", "16,16,15", "--type", "u8", "--iso", "100",
     ]);
