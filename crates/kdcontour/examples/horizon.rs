@@ -43,7 +43,7 @@
 use glam::{IVec3, Vec3};
 use kdcontour::field::terrain::{Density, DensityParams};
 use kdcontour::world::{ChunkKey, Layout, LevelWorld};
-use kdcontour::{hermite, validate, Field, MeshReport, Settings};
+use kdcontour::{hermite, validate, Field, IndexedMesh, MeshReport, Settings};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
@@ -86,6 +86,8 @@ struct View {
     build_cpu_s: Option<f64>,
     contour_s: f64,
     report: MeshReport,
+    /// [`fingerprint`] of the welded mesh.
+    hash: u64,
     /// The region's world box (min, max).
     region: (Vec3, Vec3),
 }
@@ -174,8 +176,26 @@ fn view(distance: u32, ring: f32, field: &dyn Field) -> Result<View, String> {
         build_s,
         build_cpu_s,
         contour_s,
+        hash: fingerprint(&mesh),
         report: validate(&mesh, None),
         region: region(&world),
+    })
+}
+
+/// FNV-1a over the bits of the mesh's positions and normals and its indices:
+/// equal for two builds exactly when (but for collisions) their meshes are the
+/// same bit for bit, to check that a speed-up changed no mesh.
+fn fingerprint(mesh: &IndexedMesh) -> u64 {
+    let floats = mesh
+        .positions
+        .iter()
+        .chain(&mesh.normals)
+        .flat_map(|v| v.to_array());
+    let words = floats.map(f32::to_bits).chain(mesh.indices.iter().copied());
+    words.fold(0xcbf2_9ce4_8422_2325, |h, w| {
+        w.to_le_bytes()
+            .iter()
+            .fold(h, |h, b| (h ^ *b as u64).wrapping_mul(0x100_0000_01b3))
     })
 }
 
@@ -253,6 +273,16 @@ fn main() {
     }
     let field = terrain();
     print_stage_times(&field);
+    match check_batched(&field, 1024, 2) {
+        Ok(n) => println!(
+            "batched sampling equals the value bit for bit at {n} corners (2 surface \
+             chunks per level of the 1,024 view)"
+        ),
+        Err(e) => {
+            eprintln!("{e}");
+            std::process::exit(1);
+        }
+    }
     println!(
         "terrain seed 7, {CHUNK_RES}-cell chunks of 1-cell cells, ring {ring}, threshold \
          {THRESHOLD} (own cells), {THREADS} threads; limits {} GB, {MAX_SECS} s",
@@ -306,15 +336,19 @@ fn print_stage_times(field: &dyn Field) {
         };
         let mut build = world.chunk_build(&k);
         build.settings.threads = 1;
+        // Counted on a wrapper (which samples point by point), timed on the
+        // field itself (with its own batched sampling).
         let counted = Counting::new(field);
-        let t = Instant::now();
-        let samples = build.samples(&counted).expect("the chunk samples");
-        let sample_ms = t.elapsed().as_secs_f64() * 1e3;
+        build.samples(&counted).expect("the chunk samples");
         let sampled = counted.take();
-        let t = Instant::now();
-        let tree = build.run(&counted).expect("the chunk builds");
-        let build_ms = t.elapsed().as_secs_f64() * 1e3;
+        build.run(&counted).expect("the chunk builds");
         let (values, gradients) = counted.take();
+        let t = Instant::now();
+        let samples = build.samples(field).expect("the chunk samples");
+        let sample_ms = t.elapsed().as_secs_f64() * 1e3;
+        let t = Instant::now();
+        let tree = build.run(field).expect("the chunk builds");
+        let build_ms = t.elapsed().as_secs_f64() * 1e3;
         println!(
             "one level-{level} chunk{} on one thread: sampling {} corners ({} evaluations) \
              {sample_ms:.1} ms of a {build_ms:.1} ms build ({} evaluations, {} gradients), \
@@ -331,6 +365,44 @@ fn print_stage_times(field: &dyn Field) {
             tree.retained_bytes() >> 10
         );
     }
+}
+
+/// Compares the field's batched sampling ([`Field::sample_grid`]) with
+/// [`Field::value`] bit for bit at every corner of the grids of `per_level`
+/// chunks of each level of the view at `distance` (chunks the bound cannot skip);
+/// returns how many corners it compared, or the first that differs.
+fn check_batched(field: &dyn Field, distance: u32, per_level: usize) -> Result<usize, String> {
+    let world = layout(distance, 1.0)?;
+    let keys = world.chunks();
+    let top = (distance / CHUNK_RES).trailing_zeros();
+    let mut compared = 0;
+    for level in 0..=top {
+        let surface = keys.iter().filter(|k| {
+            let b = world.chunk_build(k);
+            k.level == level
+                && matches!(hermite::one_sign(field, &b.grid, 3, &b.settings), Ok(None))
+        });
+        for k in surface.take(per_level) {
+            let grid = world.chunk_build(k).grid;
+            let c = grid.corners();
+            let mut batched = vec![0f32; grid.corner_count() as usize];
+            field.sample_grid(&grid, 0..c.z, &mut batched);
+            let corners = (0..c.z).flat_map(|z| {
+                (0..c.y).flat_map(move |y| (0..c.x).map(move |x| glam::UVec3::new(x, y, z)))
+            });
+            for (c, b) in corners.zip(&batched) {
+                let p = grid.corner_pos(c);
+                let v = field.value(p);
+                if v.to_bits() != b.to_bits() {
+                    return Err(format!(
+                        "batched sampling gives {b} at {p} (chunk {k:?}), the value is {v}"
+                    ));
+                }
+            }
+            compared += batched.len();
+        }
+    }
+    Ok(compared)
 }
 
 /// A field that counts its evaluations.
@@ -409,12 +481,13 @@ fn print_view(v: &View) {
     let r = &v.report;
     println!(
         "  total: {chunks} chunks (levels 0 to {}, {skipped} skipped), {:.1} MB retained, \
-         build {:.2} s, weld {:.2} s, {} triangles",
+         build {:.2} s, weld {:.2} s, {} triangles, mesh {:016x}",
         v.top,
         mb(retained),
         v.build_s,
         v.contour_s,
-        r.triangles
+        r.triangles,
+        v.hash
     );
     if let Some(cpu) = v.build_cpu_s {
         println!(

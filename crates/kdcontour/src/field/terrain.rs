@@ -2,6 +2,7 @@
 //! overhangs and caves. Y is up (Bevy's convention).
 
 mod perlin;
+mod rows;
 
 use super::Field;
 use glam::{DVec3, Vec3};
@@ -331,6 +332,8 @@ pub struct Density {
     params: DensityParams,
     noise: Fbm3,
     caves: Option<(Perlin3, Perlin3)>,
+    /// [`Density::reach`], found once (every value tests it).
+    reach: f64,
 }
 
 impl Density {
@@ -343,11 +346,14 @@ impl Density {
                 Perlin3::new(params.seed.wrapping_add(202)),
             )
         });
-        Density {
+        let mut density = Density {
             params,
             noise,
             caves,
-        }
+            reach: 0.0,
+        };
+        density.reach = density.reach();
+        density
     }
 }
 
@@ -356,8 +362,7 @@ impl Density {
     /// [`NOISE_REACH`] (beyond it the value is NaN, reported as a non-finite
     /// sample, instead of a panic inside the noise).
     fn in_reach(&self, q: [f64; 3]) -> bool {
-        let reach = self.reach();
-        q.iter().all(|c| (c * reach).abs() <= NOISE_REACH)
+        q.iter().all(|c| (c * self.reach).abs() <= NOISE_REACH)
     }
 
     /// How far a unit step moves the finest noise's coordinates (the surface's
@@ -376,7 +381,8 @@ impl Density {
         reach_fault(&p.as_dvec3().to_array(), self.reach())
     }
 
-    /// The two cave noises at `q`, if there are caves.
+    /// The two cave noises at `q`, if there are caves (the tests' reference).
+    #[cfg(test)]
     fn cave_noise(&self, q: [f64; 3]) -> Option<(&CaveParams, f64, f64)> {
         match (&self.caves, &self.params.caves) {
             (Some((a, b)), Some(c)) => {
@@ -395,28 +401,33 @@ impl Field for Density {
         if !self.in_reach(q) {
             return f32::NAN;
         }
-        let solid = p.y - self.params.base - self.params.amplitude * self.noise.get(q) as f32;
-        let Some(c) = &self.params.caves else {
+        let solid = self.solid(p.y, self.noise.get(q));
+        // Where the surface term decides the value, the cave noises cannot change
+        // it: skip them (in the sky and in rock below the band); where the first
+        // cave noise decides it, skip the second.
+        if self.solid_decides(solid).0 {
+            return solid;
+        }
+        let (Some(c), Some((a, b))) = (&self.params.caves, &self.caves) else {
             return solid;
         };
-        // Without a depth band the fade is 0 and `tunnel - 0.0` is `tunnel`.
-        let fade = c.fade(-solid as f64) as f32;
-        // The tunnel term below is at most `radius / frequency` in f32 too (the
-        // square root is >= 0 and rounding is monotone), so where the surface term
-        // reaches that, less the fade, the cave noises cannot change the value:
-        // skip them (in the sky and in rock below the band).
-        if solid >= c.radius / c.frequency - fade {
+        let f = c.frequency as f64;
+        let qc = [q[0] * f, q[1] * f, q[2] * f];
+        let n1 = a.get(qc) as f32;
+        if self.first_cave_decides(solid, n1) {
             return solid;
         }
-        match self.cave_noise(q) {
-            Some((c, n1, n2)) => {
-                let (n1, n2) = (n1 as f32, n2 as f32);
-                // Positive inside a tunnel (air); the terrain is air where either is.
-                let tunnel = (c.radius - (n1 * n1 + n2 * n2).sqrt()) / c.frequency;
-                solid.max(tunnel - fade)
-            }
-            None => solid,
-        }
+        self.with_tunnel(solid, n1, b.get(qc) as f32)
+    }
+
+    /// Row by row, bit for bit [`Field::value`] (module `rows`).
+    fn sample_grid(
+        &self,
+        grid: &crate::grid::Grid,
+        z_range: std::ops::Range<u32>,
+        out: &mut [f32],
+    ) {
+        self.sample_rows(grid, z_range, out);
     }
 
     /// Analytic, in f64 (the noises differentiated): as exact 65,536
@@ -435,7 +446,14 @@ impl Field for Density {
             return g_solid.as_vec3();
         };
         let f = c.frequency as f64;
-        let ((n1, g1), (n2, g2)) = (a.get_grad(q * f), b.get_grad(q * f));
+        let (n1, g1) = a.get_grad(q * f);
+        // `|(n1, n2)| >= |n1|` (`hypot` errs by less than an ulp, and `|n1|` is a
+        // float below the exact length), so above the tunnel term with `n2 = 0`
+        // the test below returns the surface's too: skip the second noise.
+        if solid > (c.radius as f64 - n1.abs()) / f - c.fade(-solid) + 1e-9 {
+            return g_solid.as_vec3();
+        }
+        let (n2, g2) = b.get_grad(q * f);
         let len = n1.hypot(n2);
         let tunnel = (c.radius as f64 - len) / f - c.fade(-solid);
         if solid >= tunnel {

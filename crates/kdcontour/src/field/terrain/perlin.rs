@@ -126,6 +126,50 @@ impl Perlin3 {
         result.clamp(-1.0, 1.0)
     }
 
+    /// [`Perlin3::get`] at `[x, y, z]` for every `x` of `xs`, into `out`: bit for
+    /// bit the same values, with the work of `y` and `z` (their lattice cells,
+    /// blends and hash bytes) done once for the row and the eight gradient
+    /// terms of a lattice cell reused while consecutive `x` stay in it.
+    pub(super) fn get_row(&self, xs: &[f64], y: f64, z: f64, out: &mut [f64]) {
+        let (cy, cz) = (lattice(y), lattice(z));
+        let (dy, dz) = (y - cy as f64, z - cz as f64);
+        // `d - 0 as f64` is `d`, bit for bit.
+        let (py, pz) = ([dy, dy - 1.0], [dz, dz - 1.0]);
+        let (sy, sz) = (quintic(dy), quintic(dz));
+        let yb = [cy as usize & 0xff, (cy + 1) as usize & 0xff];
+        let zb = [cz as usize & 0xff, (cz + 1) as usize & 0xff];
+        let p = |i: usize| self.perm[i & 0xff] as usize;
+        // The terms of the cell `cx`, by corner `ox + 2 oy + 4 oz`.
+        let mut cell: Option<isize> = None;
+        let mut terms = [TERMS[0]; 8];
+        for (&x, out) in xs.iter().zip(out.iter_mut()) {
+            let cx = lattice(x);
+            if cell != Some(cx) {
+                cell = Some(cx);
+                for (i, t) in terms.iter_mut().enumerate() {
+                    let xb = (cx + (i & 1) as isize) as usize & 0xff;
+                    *t = TERMS[p(p(p(xb) ^ yb[(i >> 1) & 1]) ^ zb[i >> 2]) & 0b1111];
+                }
+            }
+            let dx = x - cx as f64;
+            let px = [dx, dx - 1.0];
+            let g = |i: usize| {
+                let d = [px[i & 1], py[(i >> 1) & 1], pz[i >> 2]];
+                let (a, sa, b, sb) = terms[i];
+                sa * d[a] + sb * d[b]
+            };
+            let (g000, g100, g010, g110) = (g(0), g(1), g(2), g(3));
+            let (g001, g101, g011, g111) = (g(4), g(5), g(6), g(7));
+            let cx = quintic(dx);
+            let result = linear(
+                linear(linear(g000, g001, sz), linear(g010, g011, sz), sy),
+                linear(linear(g100, g101, sz), linear(g110, g111, sz), sy),
+                cx,
+            ) * SCALE_FACTOR;
+            *out = result.clamp(-1.0, 1.0);
+        }
+    }
+
     /// Value and gradient at `q` (noise units).
     pub(super) fn get_grad(&self, q: DVec3) -> (f64, DVec3) {
         let c = [lattice(q.x), lattice(q.y), lattice(q.z)];
@@ -206,6 +250,43 @@ impl Fbm3 {
             point = point.map(|x| x * 2.0);
         }
         result * self.scale
+    }
+
+    /// [`Fbm3::get`] at `[x, y, z]` for every `x` of `xs`, into `out`: bit for
+    /// bit, through [`Perlin3::get_row`] (`scratch` holds the row's points and
+    /// one octave's signal).
+    pub(super) fn get_row(
+        &self,
+        xs: &[f64],
+        y: f64,
+        z: f64,
+        out: &mut [f64],
+        scratch: &mut Vec<f64>,
+    ) {
+        let n = xs.len();
+        scratch.clear();
+        scratch.extend(xs.iter().map(|x| x * self.frequency));
+        scratch.resize(2 * n, 0.0);
+        let (point, signal) = scratch.split_at_mut(n);
+        let (mut y, mut z) = (y * self.frequency, z * self.frequency);
+        let out = &mut out[..n];
+        out.fill(0.0);
+        let mut attenuation = 0.5;
+        // The operations of `get`, octave by octave for the whole row.
+        for octave in &self.octaves {
+            octave.get_row(point, y, z, signal);
+            for (r, s) in out.iter_mut().zip(signal.iter()) {
+                *r += s * attenuation;
+            }
+            attenuation *= 0.5;
+            for x in point.iter_mut() {
+                *x *= 2.0;
+            }
+            (y, z) = (y * 2.0, z * 2.0);
+        }
+        for r in out.iter_mut() {
+            *r *= self.scale;
+        }
     }
 
     /// Value and gradient at `q` (world units).

@@ -1,5 +1,6 @@
 use super::*;
 use crate::field::{gradient_step, FnField, GRADIENT_STEP};
+use crate::grid::Grid;
 use crate::world::layout::Rng;
 
 /// The value at `q` computed in f64 throughout: a reference for gradients.
@@ -348,4 +349,111 @@ fn the_fast_noise_is_the_noise_crates_bit_for_bit() {
             );
         }
     }
+}
+
+#[test]
+fn the_row_noise_is_the_point_noise_bit_for_bit() {
+    let mut rng = Rng(44);
+    for seed in [0, 7, 99_999] {
+        let p = perlin::Perlin3::new(seed);
+        let fbm = perlin::Fbm3::new(seed, 0.011, 5);
+        let mut scratch = Vec::new();
+        for row in 0..400 {
+            let (y, z) = ((rng.unit() - 0.5) * 600.0, (rng.unit() - 0.5) * 600.0);
+            // Steps from a hundredth of a lattice cell (many points per cell) to
+            // several cells; every fourth row on integers (lattice corners, and
+            // 0, whose lattice cell is -1).
+            let step = [0.01, 0.3, 1.0, 7.5][row % 4];
+            let x0 = (rng.unit() - 0.5) * 300.0;
+            let mut xs: Vec<f64> = (0..40).map(|i| x0 + i as f64 * step).collect();
+            let (y, z) = if row % 4 == 2 {
+                xs = xs.iter().map(|x| x.round()).collect();
+                (y.round(), z.round())
+            } else {
+                (y, z)
+            };
+            let mut out = vec![0.0; xs.len()];
+            p.get_row(&xs, y, z, &mut out);
+            for (x, v) in xs.iter().zip(&out) {
+                assert_eq!(v.to_bits(), p.get([*x, y, z]).to_bits(), "at {x} {y} {z}");
+            }
+            fbm.get_row(&xs, y, z, &mut out, &mut scratch);
+            for (x, v) in xs.iter().zip(&out) {
+                assert_eq!(v.to_bits(), fbm.get([*x, y, z]).to_bits(), "at {x} {y} {z}");
+            }
+        }
+    }
+}
+
+#[test]
+fn batched_sampling_is_the_value_bit_for_bit() {
+    let mut rng = Rng(5);
+    let demo = DensityParams::demo(7);
+    let no_caves = DensityParams {
+        caves: None,
+        ..DensityParams::demo(12)
+    };
+    let mut sampled = 0usize;
+    let mut tunnels = 0usize;
+    for params in [demo.clone(), caves_everywhere(&demo), no_caves] {
+        let d = Density::new(params);
+        for k in 0..24 {
+            // Chunk grids of the level world: cells of 2^level, lattice offsets
+            // around the surface, a fractional origin now and then.
+            let cell_size = (1u32 << (k % 8)) as f32;
+            let origin = if k % 3 == 0 {
+                Vec3::new(0.25, -512.0, -0.75)
+            } else {
+                Vec3::new(0.0, -512.0, 0.0)
+            };
+            let cells = glam::UVec3::new(17 + k % 5, 9, 3 + k % 2);
+            let span = |r: f64| ((r - 0.5) * 2000.0 / cell_size as f64) as i32;
+            let offset = glam::IVec3::new(
+                span(rng.unit()),
+                ((512.0 - 20.0) / cell_size) as i32 - (k % 4) as i32,
+                span(rng.unit()),
+            );
+            let grid = Grid {
+                origin,
+                cell_size,
+                cells,
+                offset,
+            };
+            let c = grid.corners();
+            let mut out = vec![0f32; grid.corner_count() as usize];
+            d.sample_grid(&grid, 0..c.z, &mut out);
+            let mut i = 0;
+            for z in 0..c.z {
+                for y in 0..c.y {
+                    for x in 0..c.x {
+                        let p = grid.corner_pos(glam::UVec3::new(x, y, z));
+                        let v = d.value(p);
+                        assert_eq!(out[i].to_bits(), v.to_bits(), "at {p}");
+                        tunnels += (v > p.y + 22.0) as usize;
+                        i += 1;
+                    }
+                }
+            }
+            sampled += i;
+            // A z sub-range fills only its slabs.
+            let mut part = vec![0f32; (c.x * c.y) as usize];
+            d.sample_grid(&grid, 1..2, &mut part);
+            assert_eq!(part, out[(c.x * c.y) as usize..2 * (c.x * c.y) as usize]);
+        }
+    }
+    assert!(
+        sampled > 20_000 && tunnels > 0,
+        "{sampled} corners, {tunnels} in tunnels"
+    );
+    // Out of the noise's reach: NaN, as `value` gives.
+    let d = Density::new(DensityParams::demo(1));
+    let grid = Grid {
+        origin: Vec3::new(1e17, 0.0, 0.0),
+        cell_size: 1.0,
+        cells: glam::UVec3::splat(2),
+        offset: glam::IVec3::ZERO,
+    };
+    let mut out = vec![0f32; 27];
+    d.sample_grid(&grid, 0..3, &mut out);
+    assert!(out.iter().all(|v| v.is_nan()));
 }
