@@ -36,6 +36,11 @@
 //! (the log of the distance, not its square); every capped view is watertight,
 //! manifold and oriented.
 //!
+//! Each view prints a fingerprint of its welded mesh (`mesh ...`): a speed-up
+//! that must not change the meshes keeps it. Before the views, the field's
+//! batched sampling ([`Field::sample_grid`]) is compared with [`Field::value`]
+//! bit for bit on a few chunks of every level.
+//!
 //! `cargo run --release -p kdcontour --example horizon [-- DISTANCE... [--ring R]]`
 //! (default distances 256 1024 4096 16384, ring 1). A distance stops, and says
 //! so, when its retained trees pass `MAX_BYTES` or its build passes `MAX_SECS`.

@@ -328,6 +328,8 @@ impl Field for Heightfield {
 ///
 /// Its noises are the `noise` crate's `Fbm<Perlin>` and `Perlin`, computed bit
 /// for bit by a faster copy (module `perlin`) that also differentiates them.
+/// [`Field::sample_grid`] samples a grid row by row (module `rows`), with the
+/// values of [`Field::value`] bit for bit.
 pub struct Density {
     params: DensityParams,
     noise: Fbm3,
