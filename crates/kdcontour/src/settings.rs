@@ -33,6 +33,12 @@ pub struct Settings {
     /// What a surface that leaves the grid does there: ends open half a cell
     /// inside (default) or is closed by caps on the grid's faces (see [`Boundary`]).
     pub boundary: Boundary,
+    /// Keep material borders crisp (default on): for a field with materials, a
+    /// node whose surface is within a cell of a border between dominant
+    /// materials is never a leaf, so no polygon spans more than about a cell
+    /// across a border ([`crate::material`]). Fields without materials are not
+    /// affected.
+    pub material_borders: bool,
 }
 
 impl Default for Settings {
@@ -43,6 +49,7 @@ impl Default for Settings {
             root_iterations: 12,
             partition: Partition::KdTree,
             boundary: Boundary::Open,
+            material_borders: true,
         }
     }
 }

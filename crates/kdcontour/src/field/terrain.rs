@@ -1,6 +1,7 @@
 //! Noise terrain from the `noise` crate: an fBm height field, and a 3-D density with
 //! overhangs and caves. Y is up (Bevy's convention).
 
+mod materials;
 mod perlin;
 
 use super::Field;
@@ -213,13 +214,20 @@ pub(crate) fn check_noise(
 pub struct Heightfield {
     params: HeightfieldParams,
     noise: Fbm<Perlin>,
+    paint: materials::Paint,
 }
 
 impl Heightfield {
     /// Builds the noise generator.
     pub fn new(params: HeightfieldParams) -> Self {
         let noise = fbm(params.seed, params.frequency, params.octaves);
-        Heightfield { params, noise }
+        let paint =
+            materials::Paint::new(params.seed, params.base, params.amplitude, params.frequency);
+        Heightfield {
+            params,
+            noise,
+            paint,
+        }
     }
 
     /// The terrain height at `(x, z)`.
@@ -296,6 +304,15 @@ impl Field for Heightfield {
         ))
     }
 
+    /// By slope, height and a noise mask (see `terrain/materials.rs`).
+    fn material(&self, p: Vec3) -> crate::material::MaterialBlend {
+        self.paint.at(p, self.gradient(p), 0.0)
+    }
+
+    fn has_materials(&self) -> bool {
+        true
+    }
+
     fn sample_grid(
         &self,
         grid: &crate::grid::Grid,
@@ -331,6 +348,7 @@ pub struct Density {
     params: DensityParams,
     noise: Fbm3,
     caves: Option<(Perlin3, Perlin3)>,
+    paint: materials::Paint,
 }
 
 impl Density {
@@ -343,10 +361,13 @@ impl Density {
                 Perlin3::new(params.seed.wrapping_add(202)),
             )
         });
+        let paint =
+            materials::Paint::new(params.seed, params.base, params.amplitude, params.frequency);
         Density {
             params,
             noise,
             caves,
+            paint,
         }
     }
 }
@@ -374,6 +395,23 @@ impl Density {
     /// (see [`NOISE_REACH`]); `None` where it is finite.
     pub fn reach_fault(&self, p: Vec3) -> Option<String> {
         reach_fault(&p.as_dvec3().to_array(), self.reach())
+    }
+
+    /// How far into a cave wall `p` is (0 to 1, see `terrain/materials.rs`).
+    fn cave_weight(&self, p: Vec3) -> f32 {
+        let q = [p.x as f64, p.y as f64, p.z as f64];
+        if !self.in_reach(q) {
+            return 0.0;
+        }
+        let solid = p.y - self.params.base - self.params.amplitude * self.noise.get(q) as f32;
+        match self.cave_noise(q) {
+            Some((c, n1, n2)) => {
+                let (n1, n2) = (n1 as f32, n2 as f32);
+                let tunnel = (c.radius - (n1 * n1 + n2 * n2).sqrt()) / c.frequency;
+                materials::cave_weight(solid, tunnel - c.fade(-solid as f64) as f32)
+            }
+            None => 0.0,
+        }
     }
 
     /// The two cave noises at `q`, if there are caves.
@@ -417,6 +455,16 @@ impl Field for Density {
             }
             None => solid,
         }
+    }
+
+    /// By slope, height, a noise mask and cave walls (see
+    /// `terrain/materials.rs`).
+    fn material(&self, p: Vec3) -> crate::material::MaterialBlend {
+        self.paint.at(p, self.gradient(p), self.cave_weight(p))
+    }
+
+    fn has_materials(&self) -> bool {
+        true
     }
 
     /// Analytic, in f64 (the noises differentiated): as exact 65,536
