@@ -32,6 +32,9 @@
 //!   [`field::terrain`] noise, [`field::volume`] sampled volumes (loaded by
 //!   [`io::volume`] from raw or NIfTI-1 files), [`field::mesh_sdf`] triangle meshes
 //!   (loaded by [`io::mesh`] from OBJ or PLY), or any [`Field`].
+//! - Materials ([`material`]): a field may say which material is where
+//!   ([`Field::material`]); meshes then carry one [`MaterialBlend`] per vertex
+//!   and the tree keeps material borders crisp ([`Settings::material_borders`]).
 //! - Baselines on the same Hermite data ([`meshers`]): Marching Cubes ([`mc`]),
 //!   uniform Dual Marching Cubes ([`dmc`]), the octree ([`Partition::Octree`]) and
 //!   Boada and Navazo's discrete-planes octree ([`discrete_planes`]).

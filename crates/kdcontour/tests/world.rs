@@ -220,7 +220,8 @@ fn snapshots_match_the_world_and_edit_logs_replay() {
                 normal: Vec3::Y,
                 offset: 0.0
             },
-            op: BrushOp::Add
+            op: BrushOp::Add,
+            material: 0,
         })
         .is_err());
 }

@@ -592,8 +592,11 @@ impl Walker<'_, '_> {
                 .positions
                 .push(tree.grid.to_world(c.position(lo, hi)));
             self.mesh.normals.push(c.normal());
-            if let Some(m) = tree.materials.get(ci) {
-                self.mesh.materials.push(*m);
+            // One blend per vertex when any part has materials (a part built
+            // without them gives material 0).
+            if parts.iter().any(|p| !p.tree.materials.is_empty()) {
+                let m = tree.materials.get(ci).copied().unwrap_or_default();
+                self.mesh.materials.push(m);
             }
         }
         *slot

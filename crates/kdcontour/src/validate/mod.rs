@@ -415,6 +415,7 @@ mod tests {
             positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z],
             normals: vec![Vec3::Z; 4],
             indices: vec![0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3],
+            materials: Vec::new(),
         }
     }
 

@@ -11,10 +11,11 @@ use crate::material::terrain_ids::{DIRT, GRASS, ROCK, SNOW};
 use crate::material::MaterialBlend;
 use glam::Vec3;
 
-/// Steepness (`1 - n.y` of the unit normal) where rock starts to show.
-const ROCK_FROM: f32 = 0.25;
+/// Steepness (`1 - n.y` of the unit normal) where rock starts to show (a slope
+/// of about 20 degrees; it covers all from about 28).
+const ROCK_FROM: f32 = 0.06;
 /// Steepness where rock covers all.
-const ROCK_TO: f32 = 0.40;
+const ROCK_TO: f32 = 0.12;
 /// The snow line, above `base`, in amplitudes.
 const SNOW_LINE: f32 = 0.30;
 /// Low ground (dirt) below `base` by this many amplitudes.
@@ -24,9 +25,9 @@ const HEIGHT_BAND: f32 = 0.04;
 /// The dirt mask's noise frequency, in multiples of the terrain's.
 const MASK_FREQUENCY: f64 = 4.0;
 /// The dirt mask's noise level where dirt starts, and where it covers all.
-const MASK_FROM: f32 = 0.25;
+const MASK_FROM: f32 = 0.30;
 /// See [`MASK_FROM`].
-const MASK_TO: f32 = 0.40;
+const MASK_TO: f32 = 0.45;
 
 /// Hermite smoothstep of `x` from `a` (0) to `b` (1); `a > b` runs downwards.
 fn smoothstep(a: f32, b: f32, x: f32) -> f32 {
