@@ -120,7 +120,7 @@ impl MaterialBlend {
     pub fn weighted(pairs: &[(u8, f32)]) -> MaterialBlend {
         let mut acc: Vec<(u8, f32)> = Vec::with_capacity(pairs.len());
         for &(id, w) in pairs {
-            if !(w > 0.0) {
+            if w.is_nan() || w <= 0.0 {
                 continue;
             }
             match acc.iter_mut().find(|(i, _)| *i == id) {

@@ -41,7 +41,7 @@ pub(super) fn check(
         .filter(|b| {
             let sum: f32 = b.weights.iter().sum();
             (sum - 1.0).abs() > 1e-4
-                || b.weights.iter().any(|w| !(*w >= 0.0))
+                || b.weights.iter().any(|w| w.is_nan() || *w < 0.0)
                 || b.weights.windows(2).any(|w| w[0] < w[1])
         })
         .count();
