@@ -182,6 +182,11 @@ pub struct RunArgs {
     /// distance and the lost surface); the others always run.
     #[arg(long)]
     pub quick_checks: bool,
+    /// Let the tree merge nodes across material borders (for a field with
+    /// materials: fewer triangles, blurred borders). Borders are kept crisp by
+    /// default.
+    #[arg(long)]
+    pub no_material_borders: bool,
     #[command(flatten)]
     pub memory: Memory,
 }
@@ -219,6 +224,7 @@ impl RunArgs {
             grid,
             Settings {
                 boundary,
+                material_borders: !self.no_material_borders,
                 ..settings(self.threads, left)
             },
         ))

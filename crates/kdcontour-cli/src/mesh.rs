@@ -21,7 +21,10 @@ pub struct Mesh {
     /// the same Hermite data.
     #[arg(long, default_value = "kdtree")]
     mesher: String,
-    /// Write the mesh to this .obj or .ply file.
+    /// Write the mesh to this .obj or .ply file. A field with materials adds
+    /// them: PLY vertex properties `material0..3` (uchar ids, heaviest first)
+    /// and `weight0..3` (float), OBJ vertex colours (`v x y z r g b`) of each
+    /// vertex's dominant material (`kdcontour::material::PALETTE`).
     #[arg(long)]
     out: Option<PathBuf>,
 }
@@ -117,7 +120,8 @@ fn make(
         | Mesher::SkeletonClimbing
         | Mesher::DiscretePlanes => {
             let sampled = meshers::sample(field, grid, settings)?;
-            let (mesh, times) = meshers::run(mesher, &sampled, threshold, settings)?;
+            let (mut mesh, times) = meshers::run(mesher, &sampled, threshold, settings)?;
+            settings.run(|| kdcontour::material::attach(&mut mesh, field))?;
             return Ok((mesh, times, None));
         }
     };

@@ -99,6 +99,14 @@ pub fn print_checks(r: &MeshReport) {
         r.max_error,
         r.mean_error
     );
+    if let Some(m) = &r.materials {
+        let off = m.mismatched_vertices.map_or("-".into(), |n| n.to_string());
+        say!(
+            "materials  {} border triangles, {off} vertices off the field's material, {} bad blends",
+            m.border_triangles,
+            m.bad_blends
+        );
+    }
     let flipped = r.flipped_triangles.map_or("-".into(), |n| n.to_string());
     println!(
         "faces      {} zero-area, {} coincident vertices, {} slivers (< {} deg), {flipped} flipped",

@@ -173,6 +173,14 @@ impl Field for CappedField<'_> {
             self.field.gradient(p)
         }
     }
+
+    fn material(&self, p: Vec3) -> crate::material::MaterialBlend {
+        self.field.material(p)
+    }
+
+    fn has_materials(&self) -> bool {
+        self.field.has_materials()
+    }
 }
 
 #[cfg(test)]

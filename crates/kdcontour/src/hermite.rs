@@ -9,6 +9,7 @@ use crate::cell::{edge_index, opposite_face, CellTables, NO_COMP};
 use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::grid::Grid;
+use crate::material;
 use crate::qef::Qef;
 use crate::settings::Settings;
 use glam::{UVec3, Vec3};
@@ -43,6 +44,12 @@ pub struct Hermite {
     pub crossings: usize,
     /// Every edge crossing, in a fixed order.
     pub edges: Vec<EdgeCrossing>,
+    /// Per active cell, when the field has materials and
+    /// [`Settings::material_borders`] is on: the dominant material of every
+    /// crossing on the edges of the active cells within one cell of it (the
+    /// 3x3x3 block around it), or [`material::MIXED`] where they differ (a
+    /// border is near). Empty otherwise.
+    pub cell_material: Vec<u16>,
 }
 
 /// The surface crossing on one grid edge.
@@ -313,6 +320,8 @@ struct Crossing {
     edge: u8,
     point: Vec3,
     normal: Vec3,
+    /// The dominant material there ([`material::UNSET`] when not tracked).
+    material: u16,
 }
 
 impl Hermite {
@@ -453,6 +462,7 @@ impl Hermite {
         // that has it on its low side in both other axes, or to the last cell along
         // an axis at the grid's high boundary.
         let iterations = settings.root_iterations;
+        let borders = settings.materials && settings.material_borders && field.has_materials();
         let crossing_lists: Vec<Result<Vec<Crossing>>> = cells
             .par_chunks(1024)
             .enumerate()
@@ -481,6 +491,7 @@ impl Hermite {
                                 edge: e as u8,
                                 point,
                                 normal,
+                                material: material::UNSET,
                             });
                             continue;
                         }
@@ -519,11 +530,17 @@ impl Hermite {
                         } else {
                             outward
                         };
+                        let material = if borders {
+                            field.material(wp).dominant() as u16
+                        } else {
+                            material::UNSET
+                        };
                         out.push(Crossing {
                             cell: (chunk * 1024 + j) as u32,
                             edge: e as u8,
                             point,
                             normal,
+                            material,
                         });
                     }
                 }
@@ -535,6 +552,11 @@ impl Hermite {
         let mut patch_normal = vec![Vec3::ZERO; patches as usize];
         let mut crossings = 0usize;
         let mut edges = Vec::new();
+        let mut own_material = if borders {
+            vec![material::UNSET; cells.len()]
+        } else {
+            Vec::new()
+        };
         for list in crossing_lists {
             for x in list? {
                 crossings += 1;
@@ -575,10 +597,14 @@ impl Hermite {
                         let p = (cell.patch_base + comp as u32) as usize;
                         patch_qef[p].add_plane(x.point, x.normal);
                         patch_normal[p] += x.normal;
+                        if let Some(m) = own_material.get_mut(idx as usize) {
+                            *m = material::combine(*m, x.material);
+                        }
                     }
                 }
             }
         }
+        let cell_material = dilate(&cells, &own_material, n, |c| lookup[lin(c)]);
         drop(lookup);
 
         // Sign bits, 64 corners per word, in parallel (this was a serial 2 M-corner
@@ -605,6 +631,7 @@ impl Hermite {
             patch_normal,
             crossings,
             edges,
+            cell_material,
         })
     }
 
@@ -614,6 +641,45 @@ impl Hermite {
         let i = self.grid.corner_index(c[0], c[1], c[2]);
         self.outside[i / 64] >> (i % 64) & 1 == 1
     }
+}
+
+/// Per active cell: the material codes `own` (one per cell, empty when not
+/// tracked) of the active cells in the 3x3x3 block around it, combined
+/// ([`material::combine`]); `index` gives a cell's active index or `u32::MAX`.
+fn dilate(
+    cells: &[ActiveCell],
+    own: &[u16],
+    n: UVec3,
+    index: impl Fn([u32; 3]) -> u32 + Sync,
+) -> Vec<u16> {
+    if own.is_empty() {
+        return Vec::new();
+    }
+    cells
+        .par_iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let mut code = own[i];
+            for d in 0..27u32 {
+                let off = [d % 3, d / 3 % 3, d / 9];
+                let mut at = [0u32; 3];
+                let mut inside = true;
+                for a in 0..3 {
+                    let v = c.coord[a] as u32 + off[a];
+                    inside &= v >= 1 && v <= n[a];
+                    at[a] = v.wrapping_sub(1);
+                }
+                if !inside {
+                    continue;
+                }
+                let j = index(at);
+                if j != u32::MAX {
+                    code = material::combine(code, own[j as usize]);
+                }
+            }
+            code
+        })
+        .collect()
 }
 
 /// The crossing along `p0 + t * dir`, `t` in `[0, 1]`, between samples `v0` and `v1`

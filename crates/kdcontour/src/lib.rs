@@ -32,6 +32,9 @@
 //!   [`field::terrain`] noise, [`field::volume`] sampled volumes (loaded by
 //!   [`io::volume`] from raw or NIfTI-1 files), [`field::mesh_sdf`] triangle meshes
 //!   (loaded by [`io::mesh`] from OBJ or PLY), or any [`Field`].
+//! - Materials ([`material`]): a field may say which material is where
+//!   ([`Field::material`]); meshes then carry one [`MaterialBlend`] per vertex
+//!   and the tree keeps material borders crisp ([`Settings::material_borders`]).
 //! - Baselines on the same Hermite data ([`meshers`]): Marching Cubes ([`mc`]),
 //!   uniform Dual Marching Cubes ([`dmc`]), the octree ([`Partition::Octree`]) and
 //!   Boada and Navazo's discrete-planes octree ([`discrete_planes`]).
@@ -110,6 +113,7 @@ pub mod grid;
 pub mod hermite;
 pub mod io;
 pub mod kdtree;
+pub mod material;
 pub mod mc;
 pub mod mesh;
 pub mod meshers;
@@ -126,6 +130,7 @@ pub use field::csg::{Csg, CsgNode};
 pub use field::Field;
 pub use grid::Grid;
 pub use kdtree::{BuildStats, KdTree};
+pub use material::MaterialBlend;
 pub use mesh::IndexedMesh;
 pub use settings::{Boundary, Partition, Settings};
 pub use validate::{validate, validate_with, Checks, MeshReport};

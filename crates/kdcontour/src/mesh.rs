@@ -1,6 +1,7 @@
 //! The output mesh, and OBJ / binary PLY writers.
 
 use crate::error::{Error, Result};
+use crate::material::MaterialBlend;
 use glam::Vec3;
 use std::io::Write;
 
@@ -17,6 +18,9 @@ pub struct IndexedMesh {
     pub normals: Vec<Vec3>,
     /// Three indices per triangle.
     pub indices: Vec<u32>,
+    /// One material blend per vertex when the field has materials
+    /// ([`crate::material`]), empty otherwise.
+    pub materials: Vec<MaterialBlend>,
 }
 
 impl IndexedMesh {
@@ -25,6 +29,7 @@ impl IndexedMesh {
         self.positions.clear();
         self.normals.clear();
         self.indices.clear();
+        self.materials.clear();
     }
 
     /// Number of triangles.
@@ -42,9 +47,20 @@ impl IndexedMesh {
         self.indices.is_empty()
     }
 
-    /// Appends `other`, offsetting its indices.
+    /// Appends `other`, offsetting its indices. When either has materials the
+    /// result has one per vertex (material 0 for the vertices of the one
+    /// without).
     pub fn append(&mut self, other: &IndexedMesh) {
         let base = self.positions.len() as u32;
+        if !(self.materials.is_empty() && other.materials.is_empty()) {
+            self.materials
+                .resize(self.positions.len(), MaterialBlend::default());
+            self.materials.extend_from_slice(&other.materials);
+            self.materials.resize(
+                self.positions.len() + other.positions.len(),
+                MaterialBlend::default(),
+            );
+        }
         self.positions.extend_from_slice(&other.positions);
         self.normals.extend_from_slice(&other.normals);
         self.indices.extend(other.indices.iter().map(|i| i + base));
@@ -117,7 +133,9 @@ impl IndexedMesh {
         }
     }
 
-    /// Writes Wavefront OBJ text with normals.
+    /// Writes Wavefront OBJ text with normals. A mesh with materials gives each
+    /// vertex the colour of its dominant material (`v x y z r g b`, the common
+    /// vertex-colour extension, colours from [`crate::material::PALETTE`]).
     pub fn write_obj(&self, w: &mut impl Write) -> std::io::Result<()> {
         let mut w = std::io::BufWriter::new(w);
         writeln!(
@@ -126,8 +144,20 @@ impl IndexedMesh {
             self.vertex_count(),
             self.triangle_count()
         )?;
-        for p in &self.positions {
-            writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+        let coloured = self.materials.len() == self.positions.len() && !self.materials.is_empty();
+        if coloured {
+            writeln!(
+                w,
+                "# vertex colours: the dominant material (kdcontour::material::PALETTE)"
+            )?;
+        }
+        for (i, p) in self.positions.iter().enumerate() {
+            if coloured {
+                let [r, g, b] = crate::material::colour(self.materials[i].dominant());
+                writeln!(w, "v {} {} {} {r} {g} {b}", p.x, p.y, p.z)?;
+            } else {
+                writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+            }
         }
         for n in &self.normals {
             writeln!(w, "vn {} {} {}", n.x, n.y, n.z)?;
@@ -139,21 +169,42 @@ impl IndexedMesh {
         w.flush()
     }
 
-    /// Writes binary little-endian PLY with normals.
+    /// Writes binary little-endian PLY with normals. A mesh with materials adds
+    /// the vertex properties `material0` to `material3` (uchar ids, heaviest
+    /// first) and `weight0` to `weight3` (float, summing to 1).
     pub fn write_ply(&self, w: &mut impl Write) -> std::io::Result<()> {
         let mut w = std::io::BufWriter::new(w);
+        let blended = self.materials.len() == self.positions.len() && !self.materials.is_empty();
         write!(
             w,
             "ply\nformat binary_little_endian 1.0\ncomment kdcontour\nelement vertex {}\n\
              property float x\nproperty float y\nproperty float z\n\
-             property float nx\nproperty float ny\nproperty float nz\n\
-             element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
+             property float nx\nproperty float ny\nproperty float nz\n",
             self.vertex_count(),
+        )?;
+        if blended {
+            for k in 0..4 {
+                writeln!(w, "property uchar material{k}")?;
+            }
+            for k in 0..4 {
+                writeln!(w, "property float weight{k}")?;
+            }
+        }
+        write!(
+            w,
+            "element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
             self.triangle_count()
         )?;
-        for (p, n) in self.positions.iter().zip(&self.normals) {
+        for (i, (p, n)) in self.positions.iter().zip(&self.normals).enumerate() {
             for f in [p.x, p.y, p.z, n.x, n.y, n.z] {
                 w.write_all(&f.to_le_bytes())?;
+            }
+            if blended {
+                let m = &self.materials[i];
+                w.write_all(&m.ids)?;
+                for f in m.weights {
+                    w.write_all(&f.to_le_bytes())?;
+                }
             }
         }
         for t in self.indices.chunks_exact(3) {
@@ -223,6 +274,7 @@ mod tests {
             positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
             normals: vec![Vec3::Z; 3],
             indices: vec![0, 1, 2],
+            materials: Vec::new(),
         };
         let mut buf = Vec::new();
         m.write_ply(&mut buf).unwrap();
@@ -232,6 +284,34 @@ mod tests {
         m.write_obj(&mut obj).unwrap();
         let text = String::from_utf8(obj).unwrap();
         assert!(text.contains("f 1//1 2//2 3//3"));
+        // With materials: four ids and four weights more per vertex, and colours.
+        let mut m = m;
+        m.materials = vec![
+            crate::material::MaterialBlend::single(3),
+            crate::material::MaterialBlend::mix(
+                crate::material::MaterialBlend::single(1),
+                crate::material::MaterialBlend::single(2),
+                0.25,
+            ),
+            crate::material::MaterialBlend::single(0),
+        ];
+        let mut buf = Vec::new();
+        m.write_ply(&mut buf).unwrap();
+        let header_end = buf.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+        let header = String::from_utf8_lossy(&buf[..header_end]).to_string();
+        assert!(header.contains("property uchar material3\nproperty float weight0"));
+        assert_eq!(buf.len() - header_end, 3 * (24 + 4 + 16) + 13);
+        // The second vertex: ids 1, 2 and weights 0.75, 0.25 after its 24 bytes.
+        let v1 = header_end + 44 + 24;
+        assert_eq!(&buf[v1..v1 + 2], &[1, 2]);
+        assert_eq!(
+            f32::from_le_bytes(buf[v1 + 4..v1 + 8].try_into().unwrap()),
+            0.75
+        );
+        let mut obj = Vec::new();
+        m.write_obj(&mut obj).unwrap();
+        let text = String::from_utf8(obj).unwrap();
+        assert!(text.contains("v 0 0 0 0.95 0.95 0.97"), "{text}");
     }
 
     #[test]

@@ -103,17 +103,20 @@ pub fn scene_json(name: &str) -> Option<String> {
             .into(),
         "csg_mix" => r#"{"type":"union","children":[
             {"type":"difference",
-             "a":{"type":"intersection","children":[
+             "a":{"type":"material","id":4,"child":{"type":"intersection","children":[
                  {"type":"box","half_extents":[0.42,0.42,0.42],"center":[0.02,0.31,0.01]},
-                 {"type":"sphere","radius":0.56,"center":[0.02,0.31,0.01]}]},
-             "b":{"type":"union","children":[
+                 {"type":"sphere","radius":0.56,"center":[0.02,0.31,0.01]}]}},
+             "b":{"type":"material","id":5,"child":{"type":"union","children":[
                  {"type":"cylinder","radius":0.2,"half_height":1,"center":[0.02,0.31,0.01]},
                  {"type":"transform","rotate_axis":[0,0,1],"rotate_degrees":90,"translate":[0.02,0.31,0.01],
-                  "child":{"type":"cylinder","radius":0.2,"half_height":1}}]}},
+                  "child":{"type":"cylinder","radius":0.2,"half_height":1}}]}}},
             {"type":"smooth_union","radius":0.12,"children":[
-                {"type":"torus","major_radius":0.45,"minor_radius":0.12,"center":[0,-0.45,0]},
-                {"type":"capsule","radius":0.1,"half_height":0.25,"center":[0.45,-0.45,0]},
-                {"type":"rounded_box","half_extents":[0.2,0.1,0.2],"radius":0.04,"center":[-0.5,-0.45,0.1]}]}]}"#
+                {"type":"material","id":6,"child":
+                    {"type":"torus","major_radius":0.45,"minor_radius":0.12,"center":[0,-0.45,0]}},
+                {"type":"material","id":1,"child":
+                    {"type":"capsule","radius":0.1,"half_height":0.25,"center":[0.45,-0.45,0]}},
+                {"type":"material","id":7,"child":
+                    {"type":"rounded_box","half_extents":[0.2,0.1,0.2],"radius":0.04,"center":[-0.5,-0.45,0.1]}}]}]}"#
             .into(),
         _ => return None,
     })
@@ -144,7 +147,7 @@ pub fn scene(name: &str) -> Result<Scene, Error> {
         "gyroid" => "a thin-shelled gyroid inside a sphere",
         "terrain" => "an fBm height field, closed by a box",
         "caves" => "3-D density terrain with overhangs and caves, closed by a box",
-        "csg_mix" => "box ∩ sphere minus cylinders, plus a smooth torus/capsule/rounded box",
+        "csg_mix" => "box ∩ sphere minus cylinders, plus a smooth torus/capsule/rounded box, each part its own material",
         _ => {
             return Err(SceneError::UnknownScene {
                 name: crate::io::cut(name),

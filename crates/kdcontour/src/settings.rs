@@ -33,6 +33,17 @@ pub struct Settings {
     /// What a surface that leaves the grid does there: ends open half a cell
     /// inside (default) or is closed by caps on the grid's faces (see [`Boundary`]).
     pub boundary: Boundary,
+    /// Keep material borders crisp (default on): for a field with materials, a
+    /// node whose surface is within a cell of a border between dominant
+    /// materials is never a leaf, so no polygon spans more than about a cell
+    /// across a border ([`crate::material`]). Fields without materials are not
+    /// affected.
+    pub material_borders: bool,
+    /// Carry the field's materials (default on): every tree keeps its
+    /// components' material blends and meshes get one per vertex. Off, a field
+    /// with materials is meshed as one without (no cost in time or memory, no
+    /// border clustering), for apps that do not show materials.
+    pub materials: bool,
 }
 
 impl Default for Settings {
@@ -43,6 +54,8 @@ impl Default for Settings {
             root_iterations: 12,
             partition: Partition::KdTree,
             boundary: Boundary::Open,
+            material_borders: true,
+            materials: true,
         }
     }
 }

@@ -57,6 +57,7 @@ fn a_face_across_a_crease_is_not_a_fold() {
         positions: vec![c, c + Vec3::Z * 0.01, c + Vec3::X * 0.01],
         normals: vec![Vec3::Y; 3],
         indices: vec![0, 1, 2],
+        materials: Vec::new(),
     };
     let f = folds(&face(Vec3::new(0.495, 0.47, 0.0)), &field, &grid);
     assert_eq!((f.near_crease, f.folded), (1, 0), "{f:?}");
@@ -85,6 +86,7 @@ fn a_flat_gradient_is_left_out_not_divided_by() {
         positions: vec![c, c + Vec3::X * 0.1, c + Vec3::Y * 0.1],
         normals: vec![Vec3::Z; 3],
         indices: vec![0, 1, 2],
+        materials: Vec::new(),
     };
     let f = folds(&mesh, &field, &grid);
     assert_eq!((f.no_gradient, f.measured, f.folded), (1, 0, 0), "{f:?}");

@@ -89,6 +89,7 @@ fn mesh_of(positions: Vec<Vec3>, indices: Vec<u32>) -> IndexedMesh {
         normals: vec![Vec3::Y; positions.len()],
         positions,
         indices,
+        materials: Vec::new(),
     }
 }
 

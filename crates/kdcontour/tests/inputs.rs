@@ -281,6 +281,7 @@ fn meshes_load_and_become_closed_manifolds() {
         positions: m.positions.clone(),
         normals: m.positions.iter().map(|p| p.normalize()).collect(),
         indices: m.triangles.iter().flatten().cloned().collect(),
+        materials: Vec::new(),
     };
     im.save(&ply).unwrap();
     assert_eq!(load_mesh(&ply).unwrap(), m);

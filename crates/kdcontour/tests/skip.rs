@@ -22,6 +22,12 @@ impl Field for Unbounded<'_> {
     fn sample_grid(&self, grid: &Grid, z: std::ops::Range<u32>, out: &mut [f32]) {
         self.0.sample_grid(grid, z, out)
     }
+    fn material(&self, p: Vec3) -> kdcontour::MaterialBlend {
+        self.0.material(p)
+    }
+    fn has_materials(&self) -> bool {
+        self.0.has_materials()
+    }
 }
 
 fn same_tree(a: &KdTree, b: &KdTree) -> bool {
@@ -29,6 +35,7 @@ fn same_tree(a: &KdTree, b: &KdTree) -> bool {
         && a.root == b.root
         && a.outside == b.outside
         && a.comps.len() == b.comps.len()
+        && a.materials == b.materials
         && a.grid == b.grid
 }
 

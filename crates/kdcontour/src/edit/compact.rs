@@ -22,6 +22,20 @@
 //! everywhere a mesh reads values near the surface (farther out, in open air or
 //! deep rock, the values may differ in the last bits but never in sign). Other
 //! shapes are not compared and are kept.
+//!
+//! ## Materials and paints
+//! A hard brush leaves its material where it wins (its value is strictly the
+//! new one). `B` covering `A` erases `A`'s material too when both have the same
+//! material: where `B` wins it sets that material either way, and where it does
+//! not, the value after the brushes between is the same with or without `A`
+//! (as above), so the last brush that won is too (up to exact ties of values).
+//! So a cover must also have the same material.
+//!
+//! A paint changes no value and sets its material inside its shape whatever
+//! was there: it is transparent to the rule above (it sets the same material
+//! with or without `A`), and a paint is itself dropped when a later paint's
+//! shape covers it, whatever lies between (the later paint overrides it
+//! everywhere it painted). A paint's reach is its shape.
 
 use super::{Brush, BrushOp};
 use crate::field::csg::CsgNode;
@@ -33,13 +47,26 @@ pub fn compact(log: &[Brush]) -> Vec<Brush> {
     // Walking back from the newest brush: the hard brushes seen since the last
     // smooth one, each a possible cover of the older ones.
     let mut covers: Vec<&Brush> = Vec::new();
+    // Every paint seen so far (later than the brush looked at).
+    let mut paints: Vec<&Brush> = Vec::new();
     let mut keep = vec![true; log.len()];
     for (i, brush) in log.iter().enumerate().rev() {
+        if brush.op == BrushOp::Paint {
+            if paints.iter().any(|b| covered(brush, b)) {
+                keep[i] = false;
+            } else {
+                paints.push(brush);
+            }
+            continue;
+        }
         if !is_hard(brush.op) {
             covers.clear();
             continue;
         }
-        if covers.iter().any(|b| b.op == brush.op && covered(brush, b)) {
+        if covers
+            .iter()
+            .any(|b| b.op == brush.op && b.material == brush.material && covered(brush, b))
+        {
             keep[i] = false;
         } else {
             covers.push(brush);
@@ -132,6 +159,7 @@ mod tests {
                 center: Vec3::ZERO,
             },
             op: BrushOp::Add,
+            material: 0,
         };
         assert_eq!(compact(&[b.clone(), b.clone(), b.clone()]), vec![b]);
     }
@@ -185,5 +213,69 @@ mod tests {
             near += (a.abs() < 2.0) as usize;
         }
         assert!(near > 200, "only {near} points near the surface");
+    }
+}
+
+#[cfg(test)]
+mod material_tests {
+    use super::*;
+    use crate::edit::EditedField;
+    use crate::field::terrain::{Density, DensityParams};
+    use crate::field::Field;
+    use glam::Vec3;
+    use std::sync::Arc;
+
+    /// A session with materials and paints: the compacted log gives the same
+    /// values and the same materials at points near the surface.
+    #[test]
+    fn a_compacted_session_with_paints_keeps_its_materials() {
+        let base: Arc<dyn Field> = Arc::new(Density::new(DensityParams::demo(3)));
+        let mut rng = crate::world::layout::Rng(9);
+        let mut log = Vec::new();
+        for stroke in 0..40 {
+            let (op, material) = match stroke % 4 {
+                0 => (BrushOp::Subtract, 2),
+                1 => (BrushOp::Add, (stroke % 3) as u8 + 4),
+                2 => (BrushOp::Paint, (stroke % 5) as u8),
+                _ => (BrushOp::Add, 7),
+            };
+            let at = Vec3::new(
+                rng.unit() as f32 * 60.0 - 30.0,
+                rng.unit() as f32 * 16.0 - 8.0,
+                rng.unit() as f32 * 60.0 - 30.0,
+            );
+            for dab in 0..5 {
+                let r = 2.0 + dab as f32 * 0.7;
+                let jitter = Vec3::new(rng.unit() as f32, 0.0, rng.unit() as f32) * 0.3;
+                log.push(Brush::sphere(at + jitter, r, op).with_material(material));
+            }
+        }
+        let compacted = compact(&log);
+        let dropped_paints = log.iter().filter(|b| b.op == BrushOp::Paint).count()
+            - compacted.iter().filter(|b| b.op == BrushOp::Paint).count();
+        assert!(dropped_paints > 0 && compacted.len() * 2 < log.len());
+        let full = EditedField::replay(base.clone(), &log).unwrap();
+        let short = EditedField::replay(base, &compacted).unwrap();
+        let mut near = 0;
+        for _ in 0..20_000 {
+            let p = Vec3::new(
+                rng.unit() as f32 * 80.0 - 40.0,
+                rng.unit() as f32 * 40.0 - 20.0,
+                rng.unit() as f32 * 80.0 - 40.0,
+            );
+            let (a, b) = (full.value(p), short.value(p));
+            assert_eq!(a.to_bits(), b.to_bits(), "value at {p}");
+            if a.abs() < 2.0 {
+                near += 1;
+                assert_eq!(full.material(p), short.material(p), "material at {p}");
+            }
+        }
+        assert!(near > 200, "only {near} points near the surface");
+        // A later cover of another material keeps the older brush.
+        let two = vec![
+            Brush::sphere(Vec3::ZERO, 1.0, BrushOp::Add).with_material(1),
+            Brush::sphere(Vec3::ZERO, 2.0, BrushOp::Add).with_material(2),
+        ];
+        assert_eq!(compact(&two), two);
     }
 }

@@ -3,6 +3,7 @@
 //! and replayed exactly; [`compact`] drops the brushes later ones provably erase.
 
 mod compact;
+mod material;
 
 pub use compact::compact;
 
@@ -31,6 +32,9 @@ pub enum BrushOp {
         /// Blend radius (> 0).
         radius: f32,
     },
+    /// Gives the surface inside the shape the brush's material, without moving
+    /// it (the value is unchanged).
+    Paint,
 }
 
 /// One edit: a shape and what to do with it.
@@ -40,14 +44,28 @@ pub struct Brush {
     pub shape: CsgNode,
     /// The operation.
     pub op: BrushOp,
+    /// The material the brush leaves where it wins (adds, digs or paints);
+    /// smooth brushes blend it in with their blend factor. 0 by default (logs
+    /// saved before brushes had materials load as material 0).
+    #[serde(default)]
+    pub material: u8,
 }
 
 impl Brush {
-    /// A sphere brush.
+    /// A sphere brush of material 0.
     pub fn sphere(center: Vec3, radius: f32, op: BrushOp) -> Brush {
         Brush {
             shape: CsgNode::Sphere { radius, center },
             op,
+            material: 0,
+        }
+    }
+
+    /// This brush with material `id`.
+    pub fn with_material(self, id: u8) -> Brush {
+        Brush {
+            material: id,
+            ..self
         }
     }
 }
@@ -99,7 +117,7 @@ impl EditedField {
     fn compile(brush: Brush) -> Result<Compiled> {
         let field = brush.shape.compile()?;
         let blend = match brush.op {
-            BrushOp::Add | BrushOp::Subtract => 0.0,
+            BrushOp::Add | BrushOp::Subtract | BrushOp::Paint => 0.0,
             BrushOp::SmoothAdd { radius } | BrushOp::SmoothSubtract { radius } => {
                 if !(radius.is_finite() && radius > 0.0) {
                     return Err(Error::InvalidSetting {
@@ -157,12 +175,14 @@ fn smin_weight(a: f32, b: f32, k: f32) -> f32 {
 }
 
 impl EditedField {
-    /// Whether edit `e` can change a value `v` at `p`.
+    /// Whether edit `e` can change a value `v` at `p` (a paint changes no value;
+    /// it changes the material inside its reach).
     fn affects(e: &Compiled, p: Vec3, v: f32) -> bool {
         let lower = p.distance(e.reach.0) - e.reach.1;
         match e.brush.op {
             BrushOp::Add | BrushOp::SmoothAdd { .. } => lower < v + e.blend,
             BrushOp::Subtract | BrushOp::SmoothSubtract { .. } => -lower > v - e.blend,
+            BrushOp::Paint => lower < 0.0,
         }
     }
 }
@@ -181,6 +201,7 @@ impl EditedField {
                 BrushOp::Subtract => v = v.max(-e.field.value(p)),
                 BrushOp::SmoothAdd { radius } => v = smin(v, e.field.value(p), radius),
                 BrushOp::SmoothSubtract { radius } => v = -smin(-v, e.field.value(p), radius),
+                BrushOp::Paint => {}
             }
         }
         v
@@ -264,9 +285,24 @@ impl Field for EditedField {
                     }
                     v = -smin(-v, b, radius);
                 }
+                BrushOp::Paint => {}
             }
         }
         g.unwrap_or_else(|| self.base.gradient(p))
+    }
+
+    fn material(&self, p: Vec3) -> crate::material::MaterialBlend {
+        self.material_at(p)
+    }
+
+    /// The base's materials, or any brush of a material other than 0, or a
+    /// paint.
+    fn has_materials(&self) -> bool {
+        self.base.has_materials()
+            || self
+                .edits
+                .iter()
+                .any(|e| e.brush.material != 0 || e.brush.op == BrushOp::Paint)
     }
 
     fn lipschitz(&self) -> Option<f32> {
@@ -284,6 +320,9 @@ impl Field for EditedField {
     fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
         let (mut a, mut b) = self.base.bound(lo, hi)?;
         for e in self.edits.iter() {
+            if e.brush.op == BrushOp::Paint {
+                continue; // changes no value
+            }
             let (c, reach) = e.reach;
             let gap = c.clamp(lo, hi).distance(c) - reach;
             if gap.is_nan() || gap <= 0.0 {
@@ -295,6 +334,7 @@ impl Field for EditedField {
                 BrushOp::Subtract | BrushOp::SmoothSubtract { .. } => {
                     b = b.max(-d) + 0.25 * e.blend
                 }
+                BrushOp::Paint => {}
             }
         }
         Some((a, b))

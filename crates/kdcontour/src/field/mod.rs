@@ -12,6 +12,7 @@ pub mod terrain;
 pub mod volume;
 
 use crate::grid::Grid;
+use crate::material::MaterialBlend;
 use glam::Vec3;
 
 /// Smallest step of the central differences used by [`Field::gradient`]'s default,
@@ -93,6 +94,18 @@ pub trait Field: Send + Sync {
         let _ = p;
         None
     }
+
+    /// The material at `p` ([`crate::material`]); material 0 by default.
+    fn material(&self, p: Vec3) -> MaterialBlend {
+        let _ = p;
+        MaterialBlend::single(0)
+    }
+
+    /// Whether the field has materials: meshes then carry one blend per vertex
+    /// and the tree keeps material borders crisp. `false` by default.
+    fn has_materials(&self) -> bool {
+        false
+    }
 }
 
 /// Fills `out` with `value` at every corner of `grid` with z in `z_range` (x
@@ -151,6 +164,12 @@ macro_rules! forward_field {
             fn explain_non_finite(&self, p: Vec3) -> Option<String> {
                 (**self).explain_non_finite(p)
             }
+            fn material(&self, p: Vec3) -> MaterialBlend {
+                (**self).material(p)
+            }
+            fn has_materials(&self) -> bool {
+                (**self).has_materials()
+            }
         }
     )*};
 }
@@ -188,6 +207,12 @@ impl Field for IsoShift {
     }
     fn explain_non_finite(&self, p: Vec3) -> Option<String> {
         self.inner.explain_non_finite(p)
+    }
+    fn material(&self, p: Vec3) -> MaterialBlend {
+        self.inner.material(p)
+    }
+    fn has_materials(&self) -> bool {
+        self.inner.has_materials()
     }
 }
 

@@ -1,6 +1,7 @@
 //! Noise terrain from the `noise` crate: an fBm height field, and a 3-D density with
 //! overhangs and caves. Y is up (Bevy's convention).
 
+mod materials;
 mod perlin;
 mod rows;
 
@@ -214,13 +215,20 @@ pub(crate) fn check_noise(
 pub struct Heightfield {
     params: HeightfieldParams,
     noise: Fbm<Perlin>,
+    paint: materials::Paint,
 }
 
 impl Heightfield {
     /// Builds the noise generator.
     pub fn new(params: HeightfieldParams) -> Self {
         let noise = fbm(params.seed, params.frequency, params.octaves);
-        Heightfield { params, noise }
+        let paint =
+            materials::Paint::new(params.seed, params.base, params.amplitude, params.frequency);
+        Heightfield {
+            params,
+            noise,
+            paint,
+        }
     }
 
     /// The terrain height at `(x, z)`.
@@ -297,6 +305,15 @@ impl Field for Heightfield {
         ))
     }
 
+    /// By slope, height and a noise mask (see `terrain/materials.rs`).
+    fn material(&self, p: Vec3) -> crate::material::MaterialBlend {
+        self.paint.at(p, self.gradient(p), 0.0)
+    }
+
+    fn has_materials(&self) -> bool {
+        true
+    }
+
     fn sample_grid(
         &self,
         grid: &crate::grid::Grid,
@@ -336,6 +353,7 @@ pub struct Density {
     caves: Option<(Perlin3, Perlin3)>,
     /// [`Density::reach`], found once (every value tests it).
     reach: f64,
+    paint: materials::Paint,
 }
 
 impl Density {
@@ -348,11 +366,14 @@ impl Density {
                 Perlin3::new(params.seed.wrapping_add(202)),
             )
         });
+        let paint =
+            materials::Paint::new(params.seed, params.base, params.amplitude, params.frequency);
         let mut density = Density {
             params,
             noise,
             caves,
             reach: 0.0,
+            paint,
         };
         density.reach = density.reach();
         density
@@ -383,8 +404,25 @@ impl Density {
         reach_fault(&p.as_dvec3().to_array(), self.reach())
     }
 
-    /// The two cave noises at `q`, if there are caves (the tests' reference).
-    #[cfg(test)]
+    /// How far into a cave wall `p` is (0 to 1, see `terrain/materials.rs`).
+    fn cave_weight(&self, p: Vec3) -> f32 {
+        let q = [p.x as f64, p.y as f64, p.z as f64];
+        if !self.in_reach(q) {
+            return 0.0;
+        }
+        let solid = p.y - self.params.base - self.params.amplitude * self.noise.get(q) as f32;
+        match self.cave_noise(q) {
+            Some((c, n1, n2)) => {
+                let (n1, n2) = (n1 as f32, n2 as f32);
+                let tunnel = (c.radius - (n1 * n1 + n2 * n2).sqrt()) / c.frequency;
+                materials::cave_weight(solid, tunnel - c.fade(-solid as f64) as f32)
+            }
+            None => 0.0,
+        }
+    }
+
+    /// The two cave noises at `q`, if there are caves (cave walls' material,
+    /// and the tests' reference).
     fn cave_noise(&self, q: [f64; 3]) -> Option<(&CaveParams, f64, f64)> {
         match (&self.caves, &self.params.caves) {
             (Some((a, b)), Some(c)) => {
@@ -430,6 +468,16 @@ impl Field for Density {
         out: &mut [f32],
     ) {
         self.sample_rows(grid, z_range, out);
+    }
+
+    /// By slope, height, a noise mask and cave walls (see
+    /// `terrain/materials.rs`).
+    fn material(&self, p: Vec3) -> crate::material::MaterialBlend {
+        self.paint.at(p, self.gradient(p), self.cave_weight(p))
+    }
+
+    fn has_materials(&self) -> bool {
+        true
     }
 
     /// Analytic, in f64 (the noises differentiated): as exact 65,536

@@ -18,6 +18,7 @@ use crate::error::Result;
 use crate::field::Field;
 use crate::grid::Grid;
 use crate::hermite::Hermite;
+use crate::material;
 use crate::qef::Qef;
 use crate::settings::{Partition, Settings};
 use glam::Vec3;
@@ -47,6 +48,10 @@ pub(super) struct Arena {
     /// along the edge of its one sign change, or [`NO_EDGE`]. Only meaningful for
     /// clusterable nodes, whose edges have at most one change each.
     pub(super) edges: Vec<[u16; 12]>,
+    /// Per node (build time only), when the Hermite data tracks materials
+    /// ([`Hermite::cell_material`]): the material code of its cells (one
+    /// dominant material, or [`material::MIXED`] where a border is near).
+    pub(super) material: Vec<u16>,
 }
 
 /// An edge without a sign change in [`Arena::edges`].
@@ -59,6 +64,7 @@ impl Arena {
             comps: Vec::new(),
             normals: Vec::new(),
             edges: Vec::new(),
+            material: Vec::new(),
         }
     }
 
@@ -78,6 +84,7 @@ impl Arena {
         self.comps.extend(other.comps);
         self.normals.extend(other.normals);
         self.edges.extend(other.edges);
+        self.material.extend(other.material);
         noff
     }
 }
@@ -161,6 +168,7 @@ pub fn build_in(
         comps: Vec::with_capacity(h.cells.len() * 13 / 4),
         normals: Vec::with_capacity(h.cells.len() * 13 / 4),
         edges: Vec::with_capacity(h.cells.len() * 13 / 4),
+        material: Vec::new(),
     };
     let inside = |c: &[u16; 3]| (0..3).all(|a| c[a] >= core_min[a] && c[a] < core_max[a]);
     let mut ids: Vec<u32> = (0..h.cells.len() as u32)
@@ -190,6 +198,7 @@ pub fn build_in(
         root,
         outside: h.outside.clone(),
         stats: Default::default(),
+        materials: Vec::new(),
     };
     refuse_folding_leaves(&mut tree, h);
     tree
@@ -203,6 +212,7 @@ impl KdTree {
             let h = Hermite::from_field(field, grid, settings)?;
             let t1 = Instant::now();
             let mut tree = build_with(&h, settings.partition);
+            crate::material::paint_tree(&mut tree, field, settings);
             let t2 = Instant::now();
             tree.stats = BuildStats {
                 sample_ms: (t1 - t0).as_secs_f64() * 1e3,
@@ -334,9 +344,34 @@ fn build_node(
     if count == 0 {
         stack.truncate(base);
     }
+    material_border(ctx, arena, &mut node);
     arena.nodes.push(node);
     arena.edges.push(edges);
     ((arena.nodes.len() - 1) as u32, count)
+}
+
+/// Material borders as features: with materials tracked, the node's material
+/// code is its children's combined, and a node within a cell of a border
+/// ([`material::MIXED`]) enters it into its error, which becomes infinite: it is
+/// never a leaf at any threshold (nor `leaf_ok`), so the polygons around the
+/// border come from cells and from nodes whose every cell, and every cell
+/// next to one, has one dominant material. Cells themselves stay leaves.
+fn material_border(ctx: &Ctx, arena: &mut Arena, node: &mut KdNode) {
+    if ctx.h.cell_material.is_empty() {
+        return;
+    }
+    let code = node
+        .children
+        .iter()
+        .filter(|&&c| c != NONE)
+        .fold(material::UNSET, |m, &c| {
+            material::combine(m, arena.material[c as usize])
+        });
+    if code == material::MIXED {
+        node.error = f32::INFINITY;
+        node.leaf_ok = false;
+    }
+    arena.material.push(code);
 }
 
 /// The faces of the grid (bits as [`open_faces`]) that the node `min..max` lies
@@ -418,6 +453,9 @@ fn cell_leaf(
         }
     }
     arena.edges.push(edges);
+    if let Some(&m) = ctx.h.cell_material.get(id as usize) {
+        arena.material.push(m);
+    }
     arena.nodes.push(KdNode {
         min,
         max,

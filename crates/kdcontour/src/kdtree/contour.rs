@@ -253,6 +253,9 @@ fn merge(pieces: Vec<Piece>, comps: usize, out: &mut IndexedMesh) {
                 *slot = out.positions.len() as u32;
                 out.positions.push(p.mesh.positions[k]);
                 out.normals.push(p.mesh.normals[k]);
+                if let Some(m) = p.mesh.materials.get(k) {
+                    out.materials.push(*m);
+                }
             }
             remap.push(*slot);
         }
@@ -589,6 +592,12 @@ impl Walker<'_, '_> {
                 .positions
                 .push(tree.grid.to_world(c.position(lo, hi)));
             self.mesh.normals.push(c.normal());
+            // One blend per vertex when any part has materials (a part built
+            // without them gives material 0).
+            if parts.iter().any(|p| !p.tree.materials.is_empty()) {
+                let m = tree.materials.get(ci).copied().unwrap_or_default();
+                self.mesh.materials.push(m);
+            }
         }
         *slot
     }

@@ -97,6 +97,10 @@ pub struct KdTree {
     pub outside: Vec<u64>,
     /// How the build went.
     pub stats: BuildStats,
+    /// Per component, when the field has materials: the material at its vertex
+    /// ([`crate::material::paint_tree`]); empty otherwise. Contouring gives each
+    /// vertex its component's.
+    pub materials: Vec<crate::material::MaterialBlend>,
 }
 
 impl KdTree {
@@ -111,6 +115,7 @@ impl KdTree {
     pub fn retained_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<KdNode>()
             + self.comps.capacity() * std::mem::size_of::<Comp>()
+            + self.materials.capacity() * std::mem::size_of::<crate::material::MaterialBlend>()
             + self.outside.capacity() * 8
     }
 

@@ -2,7 +2,8 @@
 //! consistently oriented, Euler characteristic, components; zero-area faces,
 //! slivers and coincident vertices; against the field, the error, flipped
 //! faces and the fold measure ([`Folds`]: the angle between each face's normal
-//! and the gradient); and, on request ([`Checks`]), crossing and overlapping triangles and a
+//! and the gradient); vertex materials against the field's ([`Materials`]);
+//! and, on request ([`Checks`]), crossing and overlapping triangles and a
 //! two-sided distance between mesh and surface.
 //!
 //! ## The distances, in cells
@@ -41,12 +42,14 @@
 mod distance;
 mod faces;
 mod folds;
+mod materials;
 mod spatial;
 mod tritri;
 
 pub use distance::{DISTANCE_CAP_CELLS, LOST_CELLS};
 pub use faces::{SLIVER_DEGREES, ZERO_AREA_CELLS2};
 pub use folds::{Folds, CREASE_DEGREES, FOLD_BUCKET_DEGREES, FOLD_DEGREES};
+pub use materials::Materials;
 
 use crate::field::Field;
 use crate::grid::Grid;
@@ -112,6 +115,9 @@ pub struct MeshReport {
     pub intersections: Option<Intersections>,
     /// The two-sided distance (`None` unless [`Checks::surface`]).
     pub distance: Option<Distance>,
+    /// The vertex materials, checked against the field's (`None` when neither
+    /// the mesh nor the field has materials; see [`Materials`]).
+    pub materials: Option<Materials>,
 }
 
 /// Triangles that pass through each other, from [`Checks::intersections`]. Pairs
@@ -309,6 +315,7 @@ pub fn validate_with(mesh: &IndexedMesh, checks: &Checks) -> MeshReport {
     r.zero_area_triangles = faces.zero_area;
     r.sliver_triangles = faces.slivers;
     r.coincident_vertices = faces.coincident_vertices;
+    r.materials = materials::check(mesh, checks.field.map(|f| f.0), &used);
     if let Some((f, cell)) = checks.field {
         let s = faces::against_field(f, cell, &mesh.positions, &tris, &used, &faces.listed);
         r.max_error = s.max_error;
@@ -408,6 +415,7 @@ mod tests {
             positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z],
             normals: vec![Vec3::Z; 4],
             indices: vec![0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3],
+            materials: Vec::new(),
         }
     }
 

@@ -86,12 +86,13 @@ impl LevelBuild {
             let (values, samples) = self.sampled(field)?;
             let h = Hermite::new(field, &self.grid, &values, &self.settings)?;
             let r = self.res as u16;
-            let tree = kdtree::build_in(
+            let mut tree = kdtree::build_in(
                 &h,
                 self.settings.partition,
                 [1, 1, 1],
                 [r + 1, r + 1, r + 1],
             );
+            crate::material::paint_tree(&mut tree, field, &self.settings);
             Ok(BuiltChunk { tree, samples })
         })?
     }

@@ -81,6 +81,7 @@ pub(super) fn bound_of(op: &Op) -> Option<Bound> {
             center: *rot * (b.center * *scale) + *translate,
             radius: b.radius * scale,
         }),
+        Op::Material(_, child) => child.bound,
         Op::Heightfield(_) | Op::Density(_) => None,
     }
 }

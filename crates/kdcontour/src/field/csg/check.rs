@@ -53,6 +53,7 @@ impl CsgNode {
                 check_all(&params, path)?;
                 child.check(&format!("{path}.child"))
             }
+            CsgNode::Material { child, .. } => child.check(&format!("{path}.child")),
             CsgNode::Heightfield(p) => noise(p.amplitude, p.frequency, p.octaves),
             CsgNode::Density(p) => {
                 noise(p.amplitude, p.frequency, p.octaves)?;

@@ -37,6 +37,8 @@ pub(super) enum Op {
         /// The transformed node.
         child: Box<Node>,
     },
+    /// The child, with a material for every surface in it.
+    Material(u8, Box<Node>),
     /// An fBm height-field terrain.
     Heightfield(Box<Heightfield>),
     /// A 3-D density terrain.
@@ -120,6 +122,7 @@ fn compile_op(n: &CsgNode) -> Op {
                 child: one(child),
             }
         }
+        CsgNode::Material { id, child } => Op::Material(*id, one(child)),
         CsgNode::Heightfield(p) => Op::Heightfield(Box::new(Heightfield::new(p.clone()))),
         CsgNode::Density(p) => Op::Density(Box::new(Density::new(p.clone()))),
         _ => unreachable!("every other node is a primitive, compiled above"),

@@ -104,6 +104,7 @@ impl Node {
                 let (d, g) = child.eval(q);
                 (d * scale, *rot * g)
             }
+            Op::Material(_, child) => child.eval(p),
             Op::Heightfield(h) => (h.value(p), h.gradient(p)),
             Op::Density(d) => (d.value(p), d.gradient(p)),
         }
@@ -146,6 +147,7 @@ impl Node {
                 child,
                 ..
             } => child.value(*inv_rot * (p - *translate) / *scale) * scale,
+            Op::Material(_, child) => child.value(p),
             Op::Heightfield(h) => h.value(p),
             Op::Density(d) => d.value(p),
             Op::SmoothUnion(..) | Op::SmoothIntersection(..) | Op::SmoothDifference(..) => {
@@ -164,7 +166,7 @@ fn exact(op: &Op) -> bool {
         | Op::SmoothUnion(_, ch)
         | Op::SmoothIntersection(_, ch) => ch.iter().all(|c| exact(&c.op)),
         Op::Difference(a, b) | Op::SmoothDifference(_, a, b) => exact(&a.op) && exact(&b.op),
-        Op::Transform { child, .. } => exact(&child.op),
+        Op::Transform { child, .. } | Op::Material(_, child) => exact(&child.op),
         Op::Heightfield(_) | Op::Density(_) => false,
     }
 }
@@ -199,6 +201,7 @@ impl Node {
                 let q = *inv_rot * (p - *translate) / *scale;
                 return child.explain(q, &format!("{path}.child"));
             }
+            Op::Material(_, child) => return child.explain(p, &format!("{path}.child")),
             Op::Heightfield(h) => ("heightfield", h.reach_fault(p)),
             Op::Density(d) => ("density", d.reach_fault(p)),
         };
@@ -225,6 +228,12 @@ impl Field for Csg {
     /// path: `scene node `root.child` (heightfield): noise evaluated too far ...`.
     fn explain_non_finite(&self, p: Vec3) -> Option<String> {
         self.root.explain(p, "root")
+    }
+    fn material(&self, p: Vec3) -> crate::material::MaterialBlend {
+        self.root.material(p, None).1
+    }
+    fn has_materials(&self) -> bool {
+        self.root.has_materials()
     }
     fn lipschitz(&self) -> Option<f32> {
         // Primitives are exact distances; min, max, the polynomial smooth min (whose

@@ -19,7 +19,8 @@
 //! `intersection` (over `children`), `difference` (`a` minus `b`); smooth variants
 //! `smooth_union`, `smooth_intersection` (with `radius`) and `smooth_difference`;
 //! `transform` (`translate`, `rotate_axis` + `rotate_degrees`, uniform `scale`); and
-//! noise terrain `heightfield` and `density` (see [`super::terrain`]).
+//! noise terrain `heightfield` and `density` (see [`super::terrain`]); and
+//! `material` (`id`, `child`), which gives its child a material id.
 //!
 //! A scene nests at most [`MAX_DEPTH`] nodes deep, and holds no string longer than
 //! [`MAX_NAME`] bytes.
@@ -36,6 +37,7 @@ mod bound;
 mod check;
 mod compile;
 mod eval;
+mod material;
 mod param;
 mod parse;
 mod primitive;

@@ -89,7 +89,7 @@ fn child_keys(ty: &str) -> (&'static [&'static str], bool) {
     match ty {
         "union" | "intersection" | "smooth_union" | "smooth_intersection" => (&["children"], true),
         "difference" | "smooth_difference" => (&["a", "b"], false),
-        "transform" => (&["child"], false),
+        "transform" | "material" => (&["child"], false),
         _ => (&[], false),
     }
 }
@@ -176,7 +176,7 @@ fn node(v: &Value, path: &str, depth: usize) -> Result<CsgNode, SceneError> {
                 let slot = if k == "a" { a } else { b };
                 **slot = node(val, &format!("{path}.{k}"), depth + 1)?;
             }
-            (CsgNode::Transform { child, .. }, _) => {
+            (CsgNode::Transform { child, .. } | CsgNode::Material { child, .. }, _) => {
                 **child = node(val, &format!("{path}.child"), depth + 1)?;
             }
             _ => unreachable!("child keys are listed per node type"),

@@ -127,6 +127,7 @@ impl CsgNode {
             | CsgNode::SmoothIntersection { .. }
             | CsgNode::SmoothDifference { .. }
             | CsgNode::Transform { .. }
+            | CsgNode::Material { .. }
             | CsgNode::Heightfield(_)
             | CsgNode::Density(_) => return None,
         };

@@ -16,6 +16,7 @@ impl Node {
             Op::Heightfield(_) => true,
             Op::Union(ch) | Op::Intersection(ch) => ch.iter().any(Node::batches),
             Op::Difference(a, b) => a.batches() || b.batches(),
+            Op::Material(_, child) => child.batches(),
             _ => false,
         }
     }
@@ -48,6 +49,7 @@ impl Node {
                 a.sample(grid, z_range.clone(), out);
                 combine(out, &mut std::iter::once(&**b), |a, b| nan_max(a, -b));
             }
+            Op::Material(_, child) if self.batches() => child.sample(grid, z_range, out),
             _ => crate::field::sample_each(grid, z_range, out, |p| self.value(p)),
         }
     }

@@ -142,6 +142,16 @@ pub enum CsgNode {
         /// The transformed node.
         child: Box<CsgNode>,
     },
+    /// Gives its child a material: every surface in `child` has material `id`
+    /// (0 to 255), overriding materials given further down. Outside any
+    /// `material` node a primitive has material 0 and noise terrain its own
+    /// ([`crate::material::terrain_ids`]).
+    Material {
+        /// The material id (0 to 255).
+        id: u8,
+        /// The node it gives the material to.
+        child: Box<CsgNode>,
+    },
     /// An fBm height-field terrain.
     Heightfield(HeightfieldParams),
     /// A 3-D density terrain with overhangs and optional caves.

@@ -1,0 +1,104 @@
+//! What crisp material borders cost (issue 16): triangles and time per mesh with
+//! and without material-aware clustering ([`Settings::material_borders`]) on a
+//! plane split into two materials, `csg_mix` (each part its own material) and a
+//! chunk of the demo terrain ([`DensityParams::demo`], 32³ cells of 1, grass,
+//! rock, dirt and snow), each at threshold 1 and 0.01. Also the time one mesh
+//! takes with and without materials at all (the terrain's material evaluated at
+//! every crossing and component).
+//!
+//! Run with `cargo run --release -p kdcontour --example material_borders`.
+//! Times are the best of five builds on one thread.
+
+use glam::Vec3;
+use kdcontour::field::terrain::{Density, DensityParams};
+use kdcontour::material::MaterialBlend;
+use kdcontour::{scenes, Field, Grid, KdTree, Settings};
+use std::time::Instant;
+
+/// A plane split at x = 0.113 into materials 1 and 0.
+struct TwoMaterials;
+
+impl Field for TwoMaterials {
+    fn value(&self, p: Vec3) -> f32 {
+        p.y - 0.37 / 32.0
+    }
+    fn material(&self, p: Vec3) -> MaterialBlend {
+        MaterialBlend::single(if p.x < 0.113 { 1 } else { 0 })
+    }
+    fn has_materials(&self) -> bool {
+        true
+    }
+}
+
+/// The terrain without materials: the same values, for the time materials add.
+struct Plain<'a>(&'a dyn Field);
+
+impl Field for Plain<'_> {
+    fn value(&self, p: Vec3) -> f32 {
+        self.0.value(p)
+    }
+    fn gradient(&self, p: Vec3) -> Vec3 {
+        self.0.gradient(p)
+    }
+    fn sample_grid(&self, grid: &Grid, z: std::ops::Range<u32>, out: &mut [f32]) {
+        self.0.sample_grid(grid, z, out)
+    }
+}
+
+/// Triangles at `threshold` and the best build + contour time of five (ms).
+fn measure(field: &dyn Field, grid: &Grid, threshold: f32, borders: bool) -> (usize, f64) {
+    let settings = Settings {
+        threads: 1,
+        material_borders: borders,
+        ..Default::default()
+    };
+    let mut best = f64::INFINITY;
+    let mut tris = 0;
+    for _ in 0..5 {
+        let t = Instant::now();
+        let tree = KdTree::build(field, grid, &settings).expect("builds");
+        let mesh = tree.mesh(threshold);
+        best = best.min(t.elapsed().as_secs_f64() * 1e3);
+        tris = mesh.triangle_count();
+    }
+    (tris, best)
+}
+
+fn main() {
+    let csg = scenes::scene("csg_mix").expect("built in");
+    let terrain = Density::new(DensityParams::demo(7));
+    let chunk = Grid {
+        origin: Vec3::new(0.0, -16.0, 0.0),
+        cell_size: 1.0,
+        cells: glam::UVec3::splat(32),
+        offset: glam::IVec3::ZERO,
+    };
+    let cases: [(&str, &dyn Field, Grid); 3] = [
+        (
+            "two-material plane, 64³",
+            &TwoMaterials,
+            Grid::cube(1.0, 64),
+        ),
+        ("csg_mix, 64³", &*csg.field, Grid::cube(1.0, 64)),
+        ("demo terrain chunk, 32³", &terrain, chunk),
+    ];
+    println!(
+        "| field | threshold | triangles crisp | triangles merged | cost | ms crisp | ms merged |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|");
+    for (name, field, grid) in cases {
+        for threshold in [1.0, 0.01] {
+            let (on, t_on) = measure(field, &grid, threshold, true);
+            let (off, t_off) = measure(field, &grid, threshold, false);
+            println!(
+                "| {name} | {threshold} | {on} | {off} | {:+.1}% | {t_on:.2} | {t_off:.2} |",
+                (on as f64 / off.max(1) as f64 - 1.0) * 1e2
+            );
+        }
+    }
+    let (_, with) = measure(&terrain, &chunk, 1.0, false);
+    let (_, without) = measure(&Plain(&terrain), &chunk, 1.0, false);
+    println!(
+        "demo terrain chunk: {with:.2} ms with materials (merged), {without:.2} ms without materials"
+    );
+}
