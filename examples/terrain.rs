@@ -158,7 +158,7 @@ fn main() {
         scripted,
         save,
     })
-    .add_plugins(PhysicsPlugins::default())
+    .add_plugins((PhysicsPlugins::default(), TerrainMaterialPlugin))
     .init_resource::<common::walk::Walking>()
     .add_systems(Startup, setup)
     .add_systems(
@@ -192,12 +192,15 @@ struct Seed {
     save: Option<KdSave>,
 }
 
-fn setup(mut commands: Commands, seed: Res<Seed>, mut materials: ResMut<Assets<StandardMaterial>>) {
-    let ground = materials.add(StandardMaterial {
-        base_color: Color::srgb(0.47, 0.56, 0.33),
-        perceptual_roughness: 0.95,
-        ..default()
-    });
+fn setup(
+    mut commands: Commands,
+    seed: Res<Seed>,
+    mut images: ResMut<Assets<Image>>,
+    mut materials: ResMut<Assets<TerrainMaterial>>,
+) {
+    // Grass, rock, dirt and snow from the field, textured by triplanar
+    // projection from generated texture arrays.
+    let ground = materials.add(TerrainTextures::generate(&mut images, 256).terrain());
     let volume = if seed.flat {
         KdVolume::streaming(seed.field.clone(), seed.res, 1.0, seed.view)
     } else {
@@ -205,7 +208,7 @@ fn setup(mut commands: Commands, seed: Res<Seed>, mut materials: ResMut<Assets<S
             .with_level0(seed.level0)
     };
     let volume = commands
-        .spawn(volume.with_rows(-3, 1).with_material(ground))
+        .spawn(volume.with_rows(-3, 1).with_terrain_material(ground))
         .id();
     if let Some(save) = &seed.save {
         commands.entity(volume).insert(save.clone());

@@ -20,7 +20,7 @@
 use crate::lod::update_lod;
 use crate::state::VolumeState;
 use crate::stats::MainThreadClock;
-use crate::volume::LodCamera;
+use crate::volume::{KdChunk, LodCamera};
 use crate::KdContourSystems;
 use avian3d::prelude::{Collider, CollisionLayers, RigidBody, TrimeshFlags};
 use bevy::prelude::*;
@@ -38,9 +38,12 @@ impl Plugin for CollidersPlugin {
             .register_type::<ColliderAnchor>()
             .add_systems(
                 PostUpdate,
-                want_colliders
-                    .in_set(KdContourSystems::Lod)
-                    .before(update_lod),
+                (
+                    want_colliders
+                        .in_set(KdContourSystems::Lod)
+                        .before(update_lod),
+                    relayer_colliders.in_set(KdContourSystems::Apply),
+                ),
             );
     }
 }
@@ -116,6 +119,24 @@ pub(crate) fn attach(commands: &mut Commands, chunk: Entity, collider: Option<Ch
             commands
                 .entity(chunk)
                 .try_remove::<(Collider, RigidBody, CollisionLayers)>();
+        }
+    }
+}
+
+/// New collider layers in the settings reach every chunk collider at once (a
+/// component swap; nothing is rebuilt), and so they do a collider from a task
+/// started before the change.
+fn relayer_colliders(
+    mut commands: Commands,
+    settings: Res<ColliderSettings>,
+    clock: Res<MainThreadClock>,
+    chunks: Query<(Entity, Ref<CollisionLayers>), (With<KdChunk>, With<Collider>)>,
+) {
+    let _time = clock.measure();
+    let all = settings.is_changed();
+    for (entity, layers) in &chunks {
+        if (all || layers.is_changed()) && *layers != settings.layers {
+            commands.entity(entity).insert(settings.layers);
         }
     }
 }

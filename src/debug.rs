@@ -4,11 +4,13 @@
 //! rings and the seams between them, and gives chunks back their volume's
 //! material when it is turned off.
 
+use crate::material::{TerrainMaterial, LAYERS};
 use crate::settings::{KdContourSettings, LodSettings};
 use crate::stats::MainThreadClock;
 use crate::upload::apply_meshes;
-use crate::volume::{KdChunk, KdVolume, VolumeExtent};
+use crate::volume::{KdChunk, KdVolume, VolumeExtent, VolumeMaterial};
 use crate::KdContourSystems;
+use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
 
 /// Colours chunks by LOD band on request.
@@ -48,15 +50,60 @@ fn lod_band(threshold: f32, lod: &LodSettings) -> usize {
     ((t.clamp(0.0, 1.0) * (LOD_BANDS - 1) as f32).round() as usize).min(LOD_BANDS - 1)
 }
 
+/// The LOD colours: one `StandardMaterial` per band, and per terrain material
+/// one copy per band with every layer tinted the band's colour (a terrain
+/// chunk's vertex colours are layer weights, which would tint a plain material).
+#[derive(Resource, Default)]
+struct TerrainLodPalette(HashMap<AssetId<TerrainMaterial>, Vec<Handle<TerrainMaterial>>>);
+
+/// The colour of LOD band `i`: blue finest, red coarsest.
+fn band_color(i: usize) -> Color {
+    let t = i as f32 / (LOD_BANDS - 1) as f32;
+    Color::hsl(240.0 * (1.0 - t), 0.75, 0.55)
+}
+
+/// The band palette of terrain material `of`, made on first use.
+fn terrain_palette(
+    cache: &mut TerrainLodPalette,
+    materials: &mut Assets<TerrainMaterial>,
+    of: &Handle<TerrainMaterial>,
+) -> Option<Vec<Handle<TerrainMaterial>>> {
+    if let Some(p) = cache.0.get(&of.id()) {
+        return Some(p.clone());
+    }
+    let base = materials.get(of.id())?.clone();
+    let p: Vec<_> = (0..LOD_BANDS)
+        .map(|i| {
+            let mut m = base.clone();
+            m.extension.tints = [band_color(i).to_linear(); LAYERS];
+            m.extension.texture_mix = 0.0;
+            materials.add(m)
+        })
+        .collect();
+    cache.0.insert(of.id(), p.clone());
+    Some(p)
+}
+
 /// Gives each meshed chunk its volume's material, or its LOD band's colour.
+#[allow(clippy::too_many_arguments)]
 fn color_chunks(
     mut commands: Commands,
     settings: Res<KdContourSettings>,
     clock: Res<MainThreadClock>,
     palette: Option<Res<LodPalette>>,
+    mut terrain_palettes: Local<TerrainLodPalette>,
     materials: Option<ResMut<Assets<StandardMaterial>>>,
+    mut terrain_materials: Option<ResMut<Assets<TerrainMaterial>>>,
     volumes: Query<&KdVolume>,
-    chunks: Query<(Entity, Ref<KdChunk>, &MeshMaterial3d<StandardMaterial>)>,
+    chunks: Query<
+        (
+            Entity,
+            Ref<KdChunk>,
+            Option<&MeshMaterial3d<StandardMaterial>>,
+            Option<&MeshMaterial3d<TerrainMaterial>>,
+        ),
+        With<Mesh3d>,
+    >,
 ) {
     let _time = clock.measure();
     let palette = match palette {
@@ -65,9 +112,8 @@ fn color_chunks(
             let mut materials = materials.expect("checked");
             let p: Vec<_> = (0..LOD_BANDS)
                 .map(|i| {
-                    let t = i as f32 / (LOD_BANDS - 1) as f32;
                     materials.add(StandardMaterial {
-                        base_color: Color::hsl(240.0 * (1.0 - t), 0.75, 0.55),
+                        base_color: band_color(i),
                         perceptual_roughness: 0.8,
                         ..default()
                     })
@@ -79,24 +125,40 @@ fn color_chunks(
         None => Vec::new(),
     };
     let all = settings.is_changed();
-    for (entity, chunk, material) in &chunks {
+    for (entity, chunk, standard, terrain) in &chunks {
         if !(all || chunk.is_changed()) {
             continue;
         }
-        let want = if settings.color_by_lod && !palette.is_empty() {
-            // A horizon volume is coloured by chunk level, others by threshold.
-            let band = match volumes.get(chunk.volume).map(|v| &v.extent) {
-                Ok(VolumeExtent::Horizon { .. }) => (chunk.level as usize).min(LOD_BANDS - 1),
-                _ => lod_band(chunk.threshold, &settings.lod),
-            };
-            palette[band].clone()
-        } else if let Ok(vol) = volumes.get(chunk.volume) {
-            vol.material.clone()
-        } else {
+        let Ok(vol) = volumes.get(chunk.volume) else {
             continue;
         };
-        if material.0 != want {
-            commands.entity(entity).insert(MeshMaterial3d(want));
+        // A horizon volume is coloured by chunk level, others by threshold.
+        let band = match vol.extent {
+            VolumeExtent::Horizon { .. } => (chunk.level as usize).min(LOD_BANDS - 1),
+            _ => lod_band(chunk.threshold, &settings.lod),
+        };
+        let by_lod = settings.color_by_lod;
+        match &vol.material {
+            VolumeMaterial::Standard(own) => {
+                let want = if by_lod && !palette.is_empty() {
+                    palette[band].clone()
+                } else {
+                    own.clone()
+                };
+                if standard.map(|m| &m.0) != Some(&want) {
+                    commands.entity(entity).insert(MeshMaterial3d(want));
+                }
+            }
+            VolumeMaterial::Terrain(own) => {
+                let tinted = match (by_lod, terrain_materials.as_deref_mut()) {
+                    (true, Some(assets)) => terrain_palette(&mut terrain_palettes, assets, own),
+                    _ => None,
+                };
+                let want = tinted.map_or_else(|| own.clone(), |p| p[band].clone());
+                if terrain.map(|m| &m.0) != Some(&want) {
+                    commands.entity(entity).insert(MeshMaterial3d(want));
+                }
+            }
         }
     }
 }

@@ -49,6 +49,10 @@
 //! | `debug` (feature `debug`) | `DebugPlugin` | colours chunks by LOD band |
 //! | `colliders` (feature `avian`) | `CollidersPlugin` | avian3d trimesh colliders near the camera and `ColliderAnchor`s, built in the meshing tasks |
 //!
+//! [`material`] holds [`TerrainMaterial`] (its plugin, [`TerrainMaterialPlugin`],
+//! is for apps that render and is not in the group): the field's materials per
+//! vertex, textured by triplanar projection.
+//!
 //! [`chunks`] is the chunk world behind a volume (one level, or levels);
 //! [`headless`] runs it with no renderer; `panel` (feature `egui`) is the egui
 //! panel the examples show.
@@ -83,6 +87,7 @@ pub mod edits;
 pub mod headless;
 pub mod horizon;
 pub mod lod;
+pub mod material;
 pub mod messages;
 #[cfg(feature = "egui")]
 pub mod panel;
@@ -103,6 +108,7 @@ pub use colliders::{ColliderAnchor, ColliderSettings, CollidersPlugin};
 pub use debug::DebugPlugin;
 pub use edits::EditsPlugin;
 pub use lod::LodPlugin;
+pub use material::{TerrainExtension, TerrainMaterial, TerrainMaterialPlugin, TerrainTextures};
 pub use messages::{
     ApplyEdit, ChunkFailed, ChunkMeshed, EditApplied, LodChanged, MessagesPlugin, ReplaceField,
 };
@@ -115,7 +121,8 @@ pub use streaming::StreamingPlugin;
 pub use tasks::TasksPlugin;
 pub use upload::{to_bevy_mesh, UploadPlugin};
 pub use volume::{
-    ChunkStatus, KdChunk, KdVolume, LodCamera, SharedField, VolumeExtent, VolumePlugin,
+    ChunkStatus, KdChunk, KdVolume, LodCamera, SharedField, VolumeExtent, VolumeMaterial,
+    VolumePlugin,
 };
 
 /// Everything a user of the plugin needs.
@@ -124,7 +131,8 @@ pub mod prelude {
         ApplyEdit, ChunkFailed, ChunkMeshed, ChunkStatus, EditApplied, EditsLoaded, EditsSaved,
         KdChunk, KdContourPlugin, KdContourPlugins, KdContourSettings, KdContourStats,
         KdContourSystems, KdSave, KdVolume, LodCamera, LodChanged, LodSettings, PersistFailed,
-        ReplaceField, SharedField, VolumeExtent, VolumeState,
+        ReplaceField, SharedField, TerrainMaterial, TerrainMaterialPlugin, TerrainTextures,
+        VolumeExtent, VolumeMaterial, VolumeState,
     };
     pub use kdcontour::edit::{Brush, BrushOp};
     pub use kdcontour::world::ChunkKey;

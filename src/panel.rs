@@ -96,11 +96,27 @@ fn collider_rows(ui: &mut egui::Ui, c: &mut crate::ColliderSettings) {
                 .text("collider distance"),
         );
         log_slider(ui, &mut c.threshold, 1e-5..=1.0, "collider threshold");
-        ui.small(format!(
-            "layers: member of {:#x}, collides with {:#x}",
-            c.layers.memberships.0, c.layers.filters.0
-        ));
+        layer_bits(ui, "member of layers", &mut c.layers.memberships.0);
+        layer_bits(ui, "collides with", &mut c.layers.filters.0);
     }
+}
+
+/// Checkboxes for bits 0-7 of a collision layer mask (higher bits are kept
+/// as they are, and shown).
+#[cfg(feature = "avian")]
+fn layer_bits(ui: &mut egui::Ui, label: &str, mask: &mut u32) {
+    ui.horizontal(|ui| {
+        ui.label(label);
+        for bit in 0..8 {
+            let mut on = *mask & (1 << bit) != 0;
+            if ui.checkbox(&mut on, bit.to_string()).changed() {
+                *mask ^= 1 << bit;
+            }
+        }
+        if *mask >> 8 != 0 {
+            ui.small(format!("+ {:#x}", *mask & !0xff));
+        }
+    });
 }
 
 // A Bevy system takes one parameter per resource it reads.

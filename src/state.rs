@@ -136,6 +136,8 @@ pub struct VolumeState {
     /// (`None` with colliders off).
     #[cfg(feature = "avian")]
     pub(crate) colliders: Option<(f32, avian3d::prelude::CollisionLayers)>,
+    /// Whether chunk meshes carry the terrain material's layer weights.
+    pub(crate) material_layers: bool,
 }
 
 impl VolumeState {
@@ -155,6 +157,7 @@ impl VolumeState {
             horizon_shown: None,
             #[cfg(feature = "avian")]
             colliders: None,
+            material_layers: false,
         }
     }
 

@@ -3,12 +3,13 @@
 //! [`KdContourSettings::max_uploads_per_frame`] a frame (in
 //! [`KdContourSystems::Apply`]), and sends [`ChunkMeshed`].
 
+use crate::material::TerrainMaterial;
 use crate::messages::ChunkMeshed;
 use crate::settings::KdContourSettings;
 use crate::state::VolumeState;
 use crate::stats::MainThreadClock;
 use crate::tasks::drop_elsewhere;
-use crate::volume::{ChunkStatus, KdChunk, KdVolume};
+use crate::volume::{ChunkStatus, KdChunk, KdVolume, VolumeMaterial};
 use crate::KdContourSystems;
 use bevy::asset::RenderAssetUsages;
 use bevy::mesh::{Indices, PrimitiveTopology};
@@ -28,9 +29,11 @@ impl Plugin for UploadPlugin {
 }
 
 /// A core mesh as a Bevy triangle-list mesh (positions, normals, u32 indices), as
-/// the plugin uploads it.
+/// the plugin uploads it. A mesh that carries materials also gets the terrain
+/// material's layer weights ([`crate::material::layer_weights`]): layers 0-3 as
+/// vertex colours, 4-5 as the second UV set.
 pub fn to_bevy_mesh(m: &IndexedMesh) -> Mesh {
-    Mesh::new(
+    let mesh = Mesh::new(
         PrimitiveTopology::TriangleList,
         RenderAssetUsages::default(),
     )
@@ -42,7 +45,13 @@ pub fn to_bevy_mesh(m: &IndexedMesh) -> Mesh {
         Mesh::ATTRIBUTE_NORMAL,
         m.normals.iter().map(|n| n.to_array()).collect::<Vec<_>>(),
     )
-    .with_inserted_indices(Indices::U32(m.indices.clone()))
+    .with_inserted_indices(Indices::U32(m.indices.clone()));
+    if m.materials.len() != m.positions.len() {
+        return mesh;
+    }
+    let (lo, hi) = crate::material::layer_weights(&m.materials);
+    mesh.with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, lo)
+        .with_inserted_attribute(Mesh::ATTRIBUTE_UV_1, hi)
 }
 
 pub(crate) fn apply_meshes(
@@ -100,7 +109,7 @@ struct Upload<'a, 'w, 's, 'qw, 'qs, 'mw> {
     chunks: &'a mut ChunkQuery<'qw, 'qs>,
     meshed: &'a mut MessageWriter<'mw, ChunkMeshed>,
     volume: Entity,
-    material: &'a Handle<StandardMaterial>,
+    material: &'a VolumeMaterial,
 }
 
 impl Upload<'_, '_, '_, '_, '_, '_> {
@@ -124,9 +133,11 @@ impl Upload<'_, '_, '_, '_, '_, '_> {
         crate::colliders::attach(self.commands, chunk, ready.collider);
         match ready.mesh {
             None => {
-                self.commands
-                    .entity(chunk)
-                    .remove::<(Mesh3d, MeshMaterial3d<StandardMaterial>)>();
+                self.commands.entity(chunk).remove::<(
+                    Mesh3d,
+                    MeshMaterial3d<StandardMaterial>,
+                    MeshMaterial3d<TerrainMaterial>,
+                )>();
                 if !failed {
                     info.status = ChunkStatus::Empty;
                 }
@@ -140,9 +151,16 @@ impl Upload<'_, '_, '_, '_, '_, '_> {
                     }
                     _ => {
                         let handle = self.meshes.add(bevy_mesh);
-                        self.commands
-                            .entity(chunk)
-                            .insert((Mesh3d(handle), MeshMaterial3d(self.material.clone())));
+                        let mut entity = self.commands.entity(chunk);
+                        entity.insert(Mesh3d(handle));
+                        match self.material {
+                            VolumeMaterial::Standard(m) => {
+                                entity.insert(MeshMaterial3d(m.clone()));
+                            }
+                            VolumeMaterial::Terrain(m) => {
+                                entity.insert(MeshMaterial3d(m.clone()));
+                            }
+                        }
                     }
                 }
                 if !failed {

@@ -4,6 +4,7 @@
 //! also orders [`KdContourSystems`], the sets every other subsystem runs in.
 
 use crate::chunks::VolumeWorld;
+use crate::material::TerrainMaterial;
 use crate::settings::KdContourSettings;
 use crate::state::VolumeState;
 use crate::stats::MainThreadClock;
@@ -86,8 +87,34 @@ pub struct KdVolume {
     /// The level of the field that is the surface (0 for signed distances; a
     /// density or intensity threshold for scans). Changing it rebuilds every chunk.
     pub iso: f32,
-    /// Material of the chunk meshes.
-    pub material: Handle<StandardMaterial>,
+    /// What the chunk meshes are drawn with.
+    pub material: VolumeMaterial,
+}
+
+/// What a volume's chunks are drawn with.
+#[derive(Clone, Debug, Reflect)]
+pub enum VolumeMaterial {
+    /// One `StandardMaterial` for every chunk (the field's materials are not
+    /// shown).
+    Standard(Handle<StandardMaterial>),
+    /// The [`TerrainMaterial`]: each vertex shows the field's materials there,
+    /// textured by triplanar projection (chunk meshes then carry per-layer
+    /// weights; see [`crate::material`]).
+    Terrain(Handle<TerrainMaterial>),
+}
+
+impl Default for VolumeMaterial {
+    /// The default `StandardMaterial`.
+    fn default() -> Self {
+        VolumeMaterial::Standard(Handle::default())
+    }
+}
+
+impl VolumeMaterial {
+    /// Whether chunk meshes carry the per-layer weights the terrain material reads.
+    pub fn wants_layers(&self) -> bool {
+        matches!(self, VolumeMaterial::Terrain(_))
+    }
 }
 
 impl KdVolume {
@@ -114,7 +141,7 @@ impl KdVolume {
             chunk_res,
             cell_size,
             iso: 0.0,
-            material: Handle::default(),
+            material: VolumeMaterial::default(),
         }
     }
 
@@ -183,9 +210,16 @@ impl KdVolume {
         self
     }
 
-    /// The same volume with `material`.
+    /// The same volume drawn with one `StandardMaterial`.
     pub fn with_material(mut self, material: Handle<StandardMaterial>) -> Self {
-        self.material = material;
+        self.material = VolumeMaterial::Standard(material);
+        self
+    }
+
+    /// The same volume drawn with the [`TerrainMaterial`], which shows the
+    /// field's materials (a field without materials shows layer 0 everywhere).
+    pub fn with_terrain_material(mut self, material: Handle<TerrainMaterial>) -> Self {
+        self.material = VolumeMaterial::Terrain(material);
         self
     }
 
@@ -358,6 +392,7 @@ pub(crate) fn init_volumes(
         };
         let field = EditedField::new(KdVolume::shifted(&vol.field.0, vol.iso));
         let mut state = VolumeState::new(world, field, (vol.field.0.clone(), vol.iso));
+        state.material_layers = vol.material.wants_layers();
         // A bounded world already lists its chunks; give each an entity. (A
         // streaming or horizon world is empty until streaming runs.)
         if let VolumeExtent::Bounded { .. } = vol.extent {
@@ -408,6 +443,11 @@ pub(crate) fn sync_volumes(
 ) {
     let _time = clock.measure();
     for (entity, vol, mut state) in &mut volumes {
+        // Another kind of material wants other vertex attributes: mesh again.
+        if state.material_layers != vol.material.wants_layers() {
+            state.material_layers = vol.material.wants_layers();
+            state.rebuild_all();
+        }
         let (field, iso) = &state.base;
         if Arc::ptr_eq(field, &vol.field.0) && *iso == vol.iso {
             continue;

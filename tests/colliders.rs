@@ -178,3 +178,39 @@ fn a_wall_raised_in_its_path_stops_a_rolling_ball() {
         "the ball never reached the wall ({farthest})"
     );
 }
+
+#[test]
+fn new_collider_layers_reach_every_chunk_collider_at_once() {
+    let (mut app, volume) = world(6.0);
+    let anchor = app
+        .world_mut()
+        .spawn((ColliderAnchor, Transform::from_xyz(8.0, 3.0, 8.0)))
+        .id();
+    settle(&mut app, volume);
+    let layers = |app: &mut App| {
+        let mut q = app
+            .world_mut()
+            .query_filtered::<&CollisionLayers, (With<KdChunk>, With<Collider>)>();
+        q.iter(app.world()).copied().collect::<Vec<_>>()
+    };
+    let before = layers(&mut app);
+    assert!(!before.is_empty(), "no chunk collider near the anchor");
+    assert!(before.iter().all(|l| *l == CollisionLayers::default()));
+    let wanted = CollisionLayers::new(0b100, 0b011);
+    app.world_mut().resource_mut::<ColliderSettings>().layers = wanted;
+    step(&mut app, 1);
+    let after = layers(&mut app);
+    assert_eq!(after.len(), before.len(), "colliders came or went");
+    assert!(after.iter().all(|l| *l == wanted), "{after:?}");
+    // Colliders built later (the anchor moves on) carry them too.
+    app.world_mut()
+        .get_mut::<Transform>(anchor)
+        .unwrap()
+        .translation = Vec3::new(2.0, 3.0, 2.0);
+    settle(&mut app, volume);
+    let moved = layers(&mut app);
+    assert!(
+        !moved.is_empty() && moved.iter().all(|l| *l == wanted),
+        "{moved:?}"
+    );
+}

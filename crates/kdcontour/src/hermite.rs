@@ -530,10 +530,11 @@ impl Hermite {
                         } else {
                             outward
                         };
-                        let material = if borders {
-                            field.material(wp).dominant() as u16
-                        } else {
-                            material::UNSET
+                        // Only a pure material counts toward a border (see
+                        // [`material::PURE`]).
+                        let material = match borders.then(|| field.material(wp)) {
+                            Some(m) if m.weights[0] >= material::PURE => m.dominant() as u16,
+                            _ => material::UNSET,
                         };
                         out.push(Crossing {
                             cell: (chunk * 1024 + j) as u32,

@@ -205,6 +205,14 @@ pub fn paint_tree(tree: &mut KdTree, field: &dyn Field, settings: &crate::Settin
     tree.materials = out;
 }
 
+/// The weight at which a crossing's dominant material counts toward a border:
+/// two materials that each hold at least this much at crossings within a cell of
+/// each other meet at a hard border, kept crisp. Inside a blend wider than that
+/// (terrain fading from grass to rock over a few cells, a wide smooth union)
+/// the crossings are mixed, no border is kept, and the blend costs no
+/// triangles: the weights at the vertices already show it smoothly.
+pub const PURE: f32 = 0.75;
+
 /// A region's material code ([`crate::hermite::Hermite::cell_material`]): no
 /// crossing seen.
 pub const UNSET: u16 = u16::MAX - 1;
