@@ -6,9 +6,14 @@
 //! field itself, not the mesh, so it hits what the field says is there even
 //! before a chunk is meshed.
 //!
+//! The ground shows the field's materials (grass on the flats, rock on slopes,
+//! dirt in patches, on low ground and in caves, snow up high), textured by
+//! triplanar projection (`TerrainMaterial`).
+//!
 //! Keys: WASD move, E / Space up, Q down, Shift faster, arrow keys or middle mouse
-//! drag to look. Left mouse adds material, right mouse digs, the wheel sets the
-//! brush size. L colours chunks by level (blue finest, red coarsest). V walks
+//! drag to look. Left mouse adds ground, right mouse digs, the wheel sets the
+//! brush size; P switches the left button to painting (1 grass, 2 rock, 3 dirt,
+//! 4 snow) and back. L colours chunks by level (blue finest, red coarsest). V walks
 //! (a capsule player with gravity on the terrain; Space jumps) or flies again.
 //! F1 hides the panel.
 //!
@@ -31,6 +36,7 @@ use bevy::prelude::*;
 use bevy_kdcontour::avian3d::prelude::PhysicsPlugins;
 use bevy_kdcontour::kdcontour::field::raycast;
 use bevy_kdcontour::kdcontour::field::terrain::{Density, DensityParams};
+use bevy_kdcontour::kdcontour::material::terrain_ids;
 use bevy_kdcontour::kdcontour::Field;
 use bevy_kdcontour::panel::KdContourPanel;
 use bevy_kdcontour::prelude::*;
@@ -81,6 +87,8 @@ struct Sculpt {
     cooldown: f32,
     /// Where the brush would land (for the preview), if the ray hits.
     aim: Option<Vec3>,
+    /// The material the left button paints, or `None` to add ground.
+    paint: Option<u8>,
 }
 
 fn main() {
@@ -208,7 +216,14 @@ fn setup(
             .with_level0(seed.level0)
     };
     let volume = commands
-        .spawn(volume.with_rows(-3, 1).with_terrain_material(ground))
+        .spawn(
+            volume
+                .with_rows(-3, 1)
+                .with_terrain_material(ground)
+                // The terrain's materials blend over narrow bands everywhere:
+                // crisp borders would cost +50% triangles near and about 5x far.
+                .with_material_borders(false),
+        )
         .id();
     if let Some(save) = &seed.save {
         commands.entity(volume).insert(save.clone());
@@ -260,6 +275,7 @@ fn setup(
         radius: 5.0,
         cooldown: 0.0,
         aim: None,
+        paint: None,
     });
 }
 
@@ -277,9 +293,18 @@ fn aim(
     Some(ray.origin + *ray.direction * t)
 }
 
+/// The terrain's materials, as the number keys pick them.
+const PAINTS: [(KeyCode, u8, &str); 4] = [
+    (KeyCode::Digit1, terrain_ids::GRASS, "grass"),
+    (KeyCode::Digit2, terrain_ids::ROCK, "rock"),
+    (KeyCode::Digit3, terrain_ids::DIRT, "dirt"),
+    (KeyCode::Digit4, terrain_ids::SNOW, "snow"),
+];
+
 #[allow(clippy::too_many_arguments)]
 fn sculpt(
     time: Res<Time>,
+    keys: Res<ButtonInput<KeyCode>>,
     buttons: Res<ButtonInput<MouseButton>>,
     scroll: Res<AccumulatedMouseScroll>,
     windows: Query<&Window>,
@@ -289,9 +314,27 @@ fn sculpt(
     mut sculpt: ResMut<Sculpt>,
     mut edits: MessageWriter<ApplyEdit>,
 ) {
+    if keys.just_pressed(KeyCode::KeyP) {
+        sculpt.paint = match sculpt.paint {
+            None => Some(terrain_ids::DIRT),
+            Some(_) => None,
+        };
+    }
+    for (key, id, _) in PAINTS {
+        if keys.just_pressed(key) {
+            sculpt.paint = Some(id);
+        }
+    }
+    let left = match sculpt.paint {
+        None => "add".to_string(),
+        Some(id) => {
+            let name = PAINTS.iter().find(|p| p.1 == id).map_or("?", |p| p.2);
+            format!("paint {name} (1-4)")
+        }
+    };
     panel.extra = vec![
         format!("brush radius {:.1} (wheel)", sculpt.radius),
-        "left: add   right: dig".into(),
+        format!("left: {left}   right: dig   P: paint / add"),
     ];
     if panel.pointer_over {
         sculpt.aim = None;
@@ -307,10 +350,14 @@ fn sculpt(
     };
     sculpt.aim = aim(window, camera, state, 400.0);
     sculpt.cooldown -= time.delta_secs();
-    let op = if buttons.pressed(MouseButton::Left) {
-        BrushOp::SmoothAdd { radius: 1.5 }
+    let (op, material) = if buttons.pressed(MouseButton::Left) {
+        match sculpt.paint {
+            Some(id) => (BrushOp::Paint, id),
+            // Added ground is dirt, dug ground shows what is under it.
+            None => (BrushOp::SmoothAdd { radius: 1.5 }, terrain_ids::DIRT),
+        }
     } else if buttons.pressed(MouseButton::Right) {
-        BrushOp::SmoothSubtract { radius: 1.5 }
+        (BrushOp::SmoothSubtract { radius: 1.5 }, terrain_ids::DIRT)
     } else {
         return;
     };
@@ -320,7 +367,7 @@ fn sculpt(
     sculpt.cooldown = 0.08;
     edits.write(ApplyEdit {
         volume: sculpt.volume,
-        brush: Brush::sphere(at, sculpt.radius, op),
+        brush: Brush::sphere(at, sculpt.radius, op).with_material(material),
     });
 }
 
@@ -341,8 +388,8 @@ fn toggle_levels(keys: Res<ButtonInput<KeyCode>>, mut settings: ResMut<KdContour
     }
 }
 
-/// In screenshot mode: dig a crater and raise a mound where the screen centre
-/// looks, the way a user's clicks would, so the picture shows edits.
+/// In screenshot mode: dig a crater, raise a mound and paint a patch where the
+/// screen centre looks, the way a user's clicks would, so the picture shows edits.
 fn scripted_edits(
     seed: Res<Seed>,
     mut done: Local<bool>,
@@ -361,9 +408,23 @@ fn scripted_edits(
         return;
     };
     *done = true;
-    for (fx, fy, op, r) in [
-        (0.5, 0.55, BrushOp::SmoothSubtract { radius: 2.0 }, 11.0),
-        (0.3, 0.6, BrushOp::SmoothAdd { radius: 3.0 }, 8.0),
+    // A crater (its walls dirt), a mound, and a patch painted snow.
+    for (fx, fy, op, r, material) in [
+        (
+            0.5,
+            0.55,
+            BrushOp::SmoothSubtract { radius: 2.0 },
+            11.0,
+            terrain_ids::DIRT,
+        ),
+        (
+            0.3,
+            0.6,
+            BrushOp::SmoothAdd { radius: 3.0 },
+            8.0,
+            terrain_ids::DIRT,
+        ),
+        (0.72, 0.62, BrushOp::Paint, 9.0, terrain_ids::SNOW),
     ] {
         let Ok(ray) = camera.viewport_to_world(tf, size * Vec2::new(fx, fy)) else {
             continue;
@@ -371,7 +432,8 @@ fn scripted_edits(
         if let Some(t) = raycast(state.field(), ray.origin, *ray.direction, 400.0, 0.5) {
             edits.write(ApplyEdit {
                 volume: sculpt.volume,
-                brush: Brush::sphere(ray.origin + *ray.direction * t, r, op),
+                brush: Brush::sphere(ray.origin + *ray.direction * t, r, op)
+                    .with_material(material),
             });
         }
     }

@@ -123,6 +123,10 @@ pub(crate) fn attach(commands: &mut Commands, chunk: Entity, collider: Option<Ch
     }
 }
 
+/// Chunk entities with a collider, and its layers.
+type ChunkColliders<'w, 's> =
+    Query<'w, 's, (Entity, Ref<'static, CollisionLayers>), (With<KdChunk>, With<Collider>)>;
+
 /// New collider layers in the settings reach every chunk collider at once (a
 /// component swap; nothing is rebuilt), and so they do a collider from a task
 /// started before the change.
@@ -130,7 +134,7 @@ fn relayer_colliders(
     mut commands: Commands,
     settings: Res<ColliderSettings>,
     clock: Res<MainThreadClock>,
-    chunks: Query<(Entity, Ref<CollisionLayers>), (With<KdChunk>, With<Collider>)>,
+    chunks: ChunkColliders,
 ) {
     let _time = clock.measure();
     let all = settings.is_changed();

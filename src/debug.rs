@@ -84,6 +84,19 @@ fn terrain_palette(
     Some(p)
 }
 
+/// Meshed chunk entities and the material they show.
+type MeshedChunks<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Entity,
+        Ref<'static, KdChunk>,
+        Option<&'static MeshMaterial3d<StandardMaterial>>,
+        Option<&'static MeshMaterial3d<TerrainMaterial>>,
+    ),
+    With<Mesh3d>,
+>;
+
 /// Gives each meshed chunk its volume's material, or its LOD band's colour.
 #[allow(clippy::too_many_arguments)]
 fn color_chunks(
@@ -95,15 +108,7 @@ fn color_chunks(
     materials: Option<ResMut<Assets<StandardMaterial>>>,
     mut terrain_materials: Option<ResMut<Assets<TerrainMaterial>>>,
     volumes: Query<&KdVolume>,
-    chunks: Query<
-        (
-            Entity,
-            Ref<KdChunk>,
-            Option<&MeshMaterial3d<StandardMaterial>>,
-            Option<&MeshMaterial3d<TerrainMaterial>>,
-        ),
-        With<Mesh3d>,
-    >,
+    chunks: MeshedChunks,
 ) {
     let _time = clock.measure();
     let palette = match palette {

@@ -136,8 +136,6 @@ pub struct VolumeState {
     /// (`None` with colliders off).
     #[cfg(feature = "avian")]
     pub(crate) colliders: Option<(f32, avian3d::prelude::CollisionLayers)>,
-    /// Whether chunk meshes carry the terrain material's layer weights.
-    pub(crate) material_layers: bool,
 }
 
 impl VolumeState {
@@ -157,7 +155,6 @@ impl VolumeState {
             horizon_shown: None,
             #[cfg(feature = "avian")]
             colliders: None,
-            material_layers: false,
         }
     }
 

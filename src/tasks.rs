@@ -104,7 +104,6 @@ impl VolumeState {
             Work::Extract => {
                 let threshold = self.world().threshold(&c);
                 let snapshot = self.world().snapshot(&c);
-                let materials = self.material_layers.then(|| self.field().clone());
                 let slot = self.slots.get_mut(&c).expect("listed");
                 slot.need_extract = false;
                 let Some(snapshot) = snapshot else {
@@ -124,13 +123,9 @@ impl VolumeState {
                 slot.extracting = Some(pool.spawn(async move {
                     let t = std::time::Instant::now();
                     let mut mesh = IndexedMesh::default();
+                    // Vertex materials come from the tree, when the volume's
+                    // world carries them (a terrain material).
                     snapshot.extract(&mut mesh);
-                    // Materials only for the terrain material (a plain
-                    // material would read their weights as vertex colours).
-                    match &materials {
-                        Some(field) => kdcontour::material::attach(&mut mesh, field),
-                        None => mesh.materials.clear(),
-                    }
                     #[allow(unused_mut)]
                     let mut ready = ReadyMesh::new(threshold, &mesh);
                     #[cfg(feature = "avian")]

@@ -31,7 +31,8 @@ impl Plugin for UploadPlugin {
 /// A core mesh as a Bevy triangle-list mesh (positions, normals, u32 indices), as
 /// the plugin uploads it. A mesh that carries materials also gets the terrain
 /// material's layer weights ([`crate::material::layer_weights`]): layers 0-3 as
-/// vertex colours, 4-5 as the second UV set.
+/// vertex colours, 4-5 as the UV set (`ATTRIBUTE_UV_0`: chunk meshes have no texture
+/// coordinates, and Bevy 0.19 does not build a second UV set without a first).
 pub fn to_bevy_mesh(m: &IndexedMesh) -> Mesh {
     let mesh = Mesh::new(
         PrimitiveTopology::TriangleList,
@@ -51,7 +52,7 @@ pub fn to_bevy_mesh(m: &IndexedMesh) -> Mesh {
     }
     let (lo, hi) = crate::material::layer_weights(&m.materials);
     mesh.with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, lo)
-        .with_inserted_attribute(Mesh::ATTRIBUTE_UV_1, hi)
+        .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, hi)
 }
 
 pub(crate) fn apply_meshes(

@@ -158,6 +158,7 @@ fn a_wall_raised_in_its_path_stops_a_rolling_ball() {
                 center: Vec3::new(9.5, 4.0, 8.0),
             },
             op: BrushOp::Add,
+            material: 0,
         },
     });
     step(&mut app, 10);

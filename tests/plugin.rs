@@ -50,7 +50,11 @@ fn fresh(field: &dyn Field, state: &VolumeState) -> ChunkWorld {
         w.cell_size,
         w.chunk_res,
         0.01,
-        kdcontour::Settings::default(),
+        // A volume with a plain material builds without the field's materials.
+        kdcontour::Settings {
+            materials: false,
+            ..Default::default()
+        },
     )
     .unwrap();
     for c in w.coords() {
