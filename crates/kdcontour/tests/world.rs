@@ -354,32 +354,24 @@ fn a_terrain_chunk_retains_at_most_256_kib() {
     // does so unless the terrain material shows them). With materials each
     // component also keeps its blend: printed below, not held to the target.
     let (field, grid) = kdcontour::scenes::terrain_chunk(32);
-    let with_materials = {
+    let world = |materials: bool| {
         let mut w = ChunkWorld::new(
             grid.origin,
             grid.cell_size,
             grid.cells.x,
             UVec3::ONE,
             0.01,
-            Settings::default(),
+            Settings {
+                materials,
+                ..Settings::default()
+            },
         )
         .unwrap();
         w.build_all(&field).unwrap();
-        w.retained_bytes()
+        w
     };
-    let mut w = ChunkWorld::new(
-        grid.origin,
-        grid.cell_size,
-        grid.cells.x,
-        UVec3::ONE,
-        0.01,
-        Settings {
-            materials: false,
-            ..Settings::default()
-        },
-    )
-    .unwrap();
-    w.build_all(&field).unwrap();
+    let with_materials = world(true).retained_bytes();
+    let w = world(false);
     let tree = w.tree(IVec3::ZERO).unwrap();
     let bytes = w.retained_bytes();
     println!(
