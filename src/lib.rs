@@ -100,6 +100,7 @@ pub mod streaming;
 pub mod tasks;
 pub mod upload;
 pub mod volume;
+pub mod workers;
 
 pub use chunks::VolumeWorld;
 #[cfg(feature = "avian")]

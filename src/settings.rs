@@ -53,8 +53,11 @@ impl LodSettings {
 #[derive(Resource, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Resource)]
 pub struct KdContourSettings {
-    /// Most chunk builds and extractions running at once.
+    /// Most chunk builds and extractions running or queued for a worker at once.
     pub max_tasks_in_flight: usize,
+    /// Threads that build and extract chunks (0: one per core). They are the
+    /// plugin's own ([`crate::workers::ChunkWorkers`]), not Bevy's task pools.
+    pub chunk_threads: usize,
     /// Most chunk meshes uploaded per frame.
     pub max_uploads_per_frame: usize,
     /// Threshold of chunks before the camera sets one (or with LOD off).
@@ -72,6 +75,7 @@ impl Default for KdContourSettings {
     fn default() -> Self {
         KdContourSettings {
             max_tasks_in_flight: 8,
+            chunk_threads: 0,
             max_uploads_per_frame: 16,
             default_threshold: 0.01,
             lod: LodSettings::default(),

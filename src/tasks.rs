@@ -1,6 +1,6 @@
 //! Meshing tasks: [`TasksPlugin`] starts chunk builds (sample, Hermite data,
 //! retained tree) and extractions (interior plus owned seams at the chunk's
-//! threshold) on [`AsyncComputeTaskPool`], nearest the camera first and at most
+//! threshold) on the [`ChunkWorkers`], nearest the camera first and at most
 //! [`KdContourSettings::max_tasks_in_flight`] at once (in
 //! [`KdContourSystems::Schedule`]), and collects them with `check_ready` (in
 //! [`KdContourSystems::Poll`]): a result from an older field or threshold is
@@ -12,6 +12,7 @@ use crate::settings::KdContourSettings;
 use crate::state::{ReadyMesh, VolumeState};
 use crate::stats::{KdContourStats, MainThreadClock};
 use crate::volume::{ChunkStatus, KdChunk};
+use crate::workers::ChunkWorkers;
 use crate::KdContourSystems;
 use bevy::prelude::*;
 use bevy::tasks::{futures::check_ready, AsyncComputeTaskPool};
@@ -98,8 +99,7 @@ impl VolumeState {
     }
 
     /// Starts `work` on chunk `c`; false when no task was needed.
-    fn start(&mut self, work: Work, c: ChunkKey) -> bool {
-        let pool = AsyncComputeTaskPool::get();
+    fn start(&mut self, workers: &ChunkWorkers, work: Work, c: ChunkKey) -> bool {
         match work {
             Work::Extract => {
                 let threshold = self.world().threshold(&c);
@@ -120,7 +120,7 @@ impl VolumeState {
                     .map(|(_, layers)| layers);
                 // A newer extraction replaces a running one: dropping its task
                 // cancels it (its stamp would be stale anyway).
-                slot.extracting = Some(pool.spawn(async move {
+                slot.extracting = Some(workers.run(move || {
                     let t = std::time::Instant::now();
                     let mut mesh = IndexedMesh::default();
                     // Vertex materials come from the tree, when the volume's
@@ -145,7 +145,7 @@ impl VolumeState {
                 let slot = self.slots.get_mut(&c).expect("listed");
                 slot.need_build = false;
                 let generation = slot.build_gen;
-                slot.building = Some(pool.spawn(async move {
+                slot.building = Some(workers.run(move || {
                     let t = std::time::Instant::now();
                     let result =
                         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job.run(&field)))
@@ -185,8 +185,18 @@ fn schedule_tasks(
     clock: Res<MainThreadClock>,
     mut volumes: Query<&mut VolumeState>,
     mut chunks: Query<&mut KdChunk>,
+    mut workers: Local<Option<ChunkWorkers>>,
 ) {
     let _time = clock.measure();
+    // Started on first use, and again when the thread count changes (the old
+    // workers finish what they have queued).
+    if workers
+        .as_ref()
+        .is_none_or(|w| w.wanted() != settings.chunk_threads)
+    {
+        *workers = Some(ChunkWorkers::new(settings.chunk_threads));
+    }
+    let workers = workers.as_ref().expect("just started");
     let mut in_flight: usize = volumes.iter().map(|s| s.work_counts().running).sum();
     for mut state in &mut volumes {
         // During a level change nothing it waits for shows before every build
@@ -203,7 +213,7 @@ fn schedule_tasks(
                 if in_flight >= settings.max_tasks_in_flight {
                     return;
                 }
-                if !state.start(work, c) {
+                if !state.start(workers, work, c) {
                     continue;
                 }
                 in_flight += 1;
