@@ -72,8 +72,9 @@ fn frame(c: &mut Criterion) {
     g.finish();
 }
 
-/// Two task threads for meshing (Bevy gives async compute a quarter of the
-/// cores, one on this 2-core machine).
+/// Two async compute threads (Bevy gives it a quarter of the cores, one on this
+/// 2-core machine) for the level changes' layouts; the meshing itself runs on the
+/// plugin's chunk workers, one per core.
 fn two_task_threads() -> TaskPoolPlugin {
     TaskPoolPlugin {
         task_pool_options: TaskPoolOptions {

@@ -1,8 +1,8 @@
 //! # bevy_kdcontour
 //!
 //! A Bevy 0.19 plugin that meshes signed-distance, CSG and noise fields through the
-//! discrete k-d tree of [`kdcontour`], in chunks: each chunk's tree is built on
-//! Bevy's [`AsyncComputeTaskPool`](bevy::tasks::AsyncComputeTaskPool), kept, and
+//! discrete k-d tree of [`kdcontour`], in chunks: each chunk's tree is built by the
+//! plugin's [`ChunkWorkers`](workers::ChunkWorkers) (one thread per core), kept, and
 //! re-cut at a new error threshold when the [`LodCamera`] moves (no re-sampling);
 //! edits ([`ApplyEdit`]) rebuild only the chunks they reach; seams between chunks
 //! at different thresholds are contoured across the chunk trees, so there are no
