@@ -5,6 +5,10 @@
 //! a change can reach are re-meshed: the old and new bounds of the changed shape,
 //! grown by its blend radius (the panel counts them).
 //!
+//! Each shape has a colour (a material id, saved in the scene file): the volume
+//! uses the terrain material with flat tints, and borders between colours stay
+//! crisp at every threshold.
+//!
 //! The model (layers, undo, save / load, the regions a change reaches) is
 //! `kdcontour::field::layers`; this file is the window, the panel and the input.
 //!
@@ -21,6 +25,7 @@ mod common;
 use bevy::prelude::*;
 use bevy_kdcontour::kdcontour::field::layers::{self, Change, Layer, Layers, Operation, Solid};
 use bevy_kdcontour::kdcontour::{self, Field};
+use bevy_kdcontour::material::LAYERS;
 use bevy_kdcontour::panel::bevy_egui::{egui, EguiContexts, EguiPrimaryContextPass};
 use bevy_kdcontour::panel::KdContourPanel;
 use bevy_kdcontour::prelude::*;
@@ -89,6 +94,7 @@ fn main() {
             ..default()
         },
     )
+    .add_plugins(TerrainMaterialPlugin)
     .insert_resource(Editor {
         layers,
         selected: Some(1),
@@ -105,6 +111,17 @@ fn main() {
     .run();
 }
 
+/// The editor's colours, by material id (sRGB): sand, terracotta, teal, slate
+/// blue, ochre, plum. Ids past the last wrap, as the terrain material's layers do.
+const TINTS: [[f32; 3]; LAYERS] = [
+    [0.80, 0.72, 0.62],
+    [0.80, 0.42, 0.30],
+    [0.22, 0.58, 0.60],
+    [0.35, 0.45, 0.75],
+    [0.85, 0.66, 0.25],
+    [0.58, 0.36, 0.62],
+];
+
 /// The scene's field in the volume's local space (lattice origin at the cube's
 /// corner).
 fn field_of(layers: &Layers) -> Arc<dyn Field> {
@@ -114,16 +131,14 @@ fn field_of(layers: &Layers) -> Arc<dyn Field> {
 fn setup(
     mut commands: Commands,
     mut editor: ResMut<Editor>,
-    mut materials: ResMut<Assets<StandardMaterial>>,
+    mut images: ResMut<Assets<Image>>,
+    mut materials: ResMut<Assets<TerrainMaterial>>,
 ) {
     let field = field_of(&editor.layers);
     let res = 16;
     let chunks = 6;
-    let material = materials.add(StandardMaterial {
-        base_color: Color::srgb(0.8, 0.72, 0.62),
-        perceptual_roughness: 0.5,
-        ..default()
-    });
+    let tints = TINTS.map(|[r, g, b]| Color::srgb(r, g, b));
+    let material = materials.add(TerrainTextures::generate(&mut images, 128).tinted(tints));
     let volume = commands
         .spawn((
             KdVolume::new(
@@ -132,7 +147,7 @@ fn setup(
                 res,
                 2.0 * HALF / (chunks * res) as f32,
             )
-            .with_material(material),
+            .with_terrain_material(material),
             Transform::from_translation(Vec3::splat(-HALF)),
         ))
         .id();
@@ -329,7 +344,10 @@ fn editor_panel(
                 for k in Solid::ALL {
                     if ui.small_button(format!("{k:?}")).clicked() {
                         let at = Vec3::new(0.0, 1.0, 0.0);
-                        draft.push(Layer::new(k, Operation::Union, 0.1, at, 0.8));
+                        let colour = (draft.len() % LAYERS) as u8;
+                        draft.push(
+                            Layer::new(k, Operation::Union, 0.1, at, 0.8).with_material(colour),
+                        );
                         ed.selected = Some(draft.len() - 1);
                     }
                 }
@@ -358,6 +376,29 @@ fn editor_panel(
                         .logarithmic(true)
                         .text("scale"),
                 );
+                ui.horizontal(|ui| {
+                    ui.label("colour");
+                    for (id, [r, g, b]) in TINTS.iter().enumerate() {
+                        let fill = egui::Color32::from_rgb(
+                            (r * 255.0) as u8,
+                            (g * 255.0) as u8,
+                            (b * 255.0) as u8,
+                        );
+                        let chosen = s.material as usize % LAYERS == id;
+                        let stroke = if chosen {
+                            egui::Stroke::new(2.0, egui::Color32::WHITE)
+                        } else {
+                            egui::Stroke::NONE
+                        };
+                        let swatch = egui::Button::new("")
+                            .fill(fill)
+                            .stroke(stroke)
+                            .min_size(egui::vec2(22.0, 18.0));
+                        if ui.add(swatch).clicked() {
+                            s.material = id as u8;
+                        }
+                    }
+                });
                 if ui.button("delete").clicked() {
                     action = Some(Action::Delete);
                 }

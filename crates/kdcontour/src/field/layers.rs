@@ -226,6 +226,9 @@ pub struct Layer {
     pub translate: Vec3,
     /// Uniform scale (> 0).
     pub scale: f32,
+    /// The layer's material id ([`crate::material`]; an editor's colour). 0, the
+    /// default, adds no material node, so an imported body keeps its own.
+    pub material: u8,
 }
 
 /// Blend radius of a layer read from a file whose operation has none.
@@ -246,7 +249,14 @@ impl Layer {
             blend,
             translate,
             scale,
+            material: 0,
         }
+    }
+
+    /// The layer with material `id`.
+    pub fn with_material(mut self, id: u8) -> Self {
+        self.material = id;
+        self
     }
 
     /// A short name for lists: the solid, or `imported`.
@@ -257,25 +267,36 @@ impl Layer {
         }
     }
 
-    /// The layer alone, as a scene node (a transform of its body).
+    /// The layer alone, as a scene node: a transform of its body, inside a
+    /// material node unless its material is 0.
     pub fn node(&self) -> CsgNode {
         let child = match &self.body {
             Body::Primitive(s) => s.node(),
             Body::Imported(n) => n.clone(),
         };
-        CsgNode::Transform {
+        let placed = CsgNode::Transform {
             translate: self.translate,
             rotate_axis: Vec3::Y,
             rotate_degrees: 0.0,
             scale: self.scale,
             child: Box::new(child),
+        };
+        match self.material {
+            0 => placed,
+            id => CsgNode::Material {
+                id,
+                child: Box::new(placed),
+            },
         }
     }
 
-    /// Reads a scene node as one layer: an unrotated transform keeps its translation
-    /// and scale (its child is a primitive if it equals one), anything else is
-    /// imported whole.
+    /// Reads a scene node as one layer: a material node gives the layer its
+    /// material; an unrotated transform keeps its translation and scale (its child
+    /// is a primitive if it equals one), anything else is imported whole.
     fn of(node: &CsgNode, operation: Operation, blend: f32) -> Layer {
+        if let CsgNode::Material { id, child } = node {
+            return Layer::of(child, operation, blend).with_material(*id);
+        }
         if let CsgNode::Transform {
             translate,
             rotate_degrees,
@@ -296,6 +317,7 @@ impl Layer {
                     blend,
                     translate: *translate,
                     scale: *scale,
+                    material: 0,
                 };
             }
         }
@@ -305,15 +327,16 @@ impl Layer {
             blend,
             translate: Vec3::ZERO,
             scale: 1.0,
+            material: 0,
         }
     }
 }
 
 /// The editor's opening scene: a rounded block with a dome, a bore, a ring and a
-/// carved groove.
+/// carved groove, each its own material (0 to 4).
 pub fn starter() -> Vec<Layer> {
     let s = |solid, op, translate, scale| Layer::new(solid, op, 0.12, translate, scale);
-    vec![
+    let shapes = vec![
         s(
             Solid::RoundedBox,
             Operation::Union,
@@ -344,7 +367,12 @@ pub fn starter() -> Vec<Layer> {
             Vec3::new(0.55, 0.1, 0.75),
             0.9,
         ),
-    ]
+    ];
+    shapes
+        .into_iter()
+        .zip(0u8..)
+        .map(|(layer, id)| layer.with_material(id))
+        .collect()
 }
 
 /// The whole list as one scene node: a left fold of the layers in order. An empty
@@ -409,6 +437,41 @@ mod tests {
         assert_eq!(norm(from_json(&text).unwrap()), norm(layers));
         // And it is a valid scene file for every other tool.
         CsgNode::from_json(&text).unwrap().compile().unwrap();
+    }
+
+    #[test]
+    fn each_layer_gives_its_material_where_it_wins_and_keeps_it_through_a_file() {
+        let layers = starter();
+        let ids: Vec<u8> = layers.iter().map(|l| l.material).collect();
+        assert_eq!(ids, vec![0, 1, 2, 3, 4]);
+        let field = scene_node(&layers).compile().unwrap();
+        assert!(field.has_materials());
+        // The block's side, the dome's flank (outside the bore) and the ring's
+        // outer rim: each where its own layer decides the surface.
+        for (p, id) in [
+            (Vec3::new(-0.62, -0.1, -0.2), 0),
+            (Vec3::new(0.5, 1.015, 0.0), 1),
+            (Vec3::new(0.0, -0.55, 1.18), 3),
+        ] {
+            assert!(field.value(p).abs() < 0.05, "{p} is near the surface");
+            assert_eq!(field.material(p).dominant(), id, "at {p}");
+        }
+        // The bore's wall is the cutter's material; the file keeps every id.
+        let wall = Vec3::new(0.3 * 1.1 - 0.01, 1.0, 0.0);
+        assert_eq!(field.material(wall).dominant(), 2);
+        let back = from_json(&to_json(&layers)).unwrap();
+        assert_eq!(back.iter().map(|l| l.material).collect::<Vec<_>>(), ids);
+        // A layer of material 0 adds no node: an imported body keeps its own.
+        let inner = CsgNode::Material {
+            id: 5,
+            child: Box::new(Solid::Sphere.node()),
+        };
+        let imported = Layer {
+            body: Body::Imported(inner),
+            ..Layer::new(Solid::Sphere, Operation::Union, 0.1, Vec3::ZERO, 1.0)
+        };
+        let f = imported.node().compile().unwrap();
+        assert_eq!(f.material(Vec3::new(0.5, 0.0, 0.0)).dominant(), 5);
     }
 
     #[test]

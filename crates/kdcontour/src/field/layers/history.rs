@@ -269,6 +269,46 @@ mod tests {
     }
 
     #[test]
+    fn a_recoloured_shape_re_meshes_only_near_it_and_changes_no_surface() {
+        let mut layers = Layers::new(starter()).unwrap();
+        let a = layers.field_at(Vec3::splat(HALF));
+        let reach = layers.reach(3).unwrap();
+        let mut recoloured = layers.list().to_vec();
+        recoloured[3].material = 6;
+        let change = layers.edit(recoloured).unwrap();
+        assert_eq!(change.regions, Some(vec![reach, reach]));
+        let b = layers.field_at(Vec3::splat(HALF));
+        let (mut inside, mut outside) = (0, 0);
+        for i in 0..20000 {
+            let p = Vec3::new(
+                (i as f32 * 0.173).sin(),
+                (i as f32 * 0.311).cos(),
+                (i as f32 * 0.097).sin(),
+            ) * HALF;
+            let q = p + Vec3::splat(HALF);
+            // The same surface everywhere: only the material moved.
+            assert_eq!(a.value(q), b.value(q), "{p}");
+            let (ma, mb) = (a.material(q), b.material(q));
+            // Away from the surface the winning side of a union can be a far
+            // shape (every distance is positive there); the mesh only reads
+            // materials on the surface.
+            if p.distance(reach.0) > reach.1 {
+                if a.value(q).abs() < 0.05 {
+                    assert_eq!(ma, mb, "{p}: the material changed outside the ring's reach");
+                    outside += 1;
+                }
+            } else if ma != mb {
+                assert!(mb.weight_of(6) > 0.0 && ma.weight_of(3) > 0.0, "{p}");
+                inside += 1;
+            }
+        }
+        assert!(
+            outside > 50 && inside > 50,
+            "{outside} outside, {inside} recoloured"
+        );
+    }
+
+    #[test]
     fn inserting_or_removing_one_layer_touches_only_that_layer() {
         let mut layers = Layers::new(starter()).unwrap();
         let gone = layers.reach(2).unwrap();
