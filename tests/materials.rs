@@ -126,3 +126,71 @@ fn a_plain_material_volume_carries_no_layer_weights() {
         assert!(lo.is_none() && hi.is_none(), "a plain material got weights");
     }
 }
+
+#[test]
+fn a_paint_stroke_rebuilds_only_the_chunks_it_reaches_and_shows_its_material() {
+    let (mut app, volume) = ground(|v| v.with_terrain_material(Handle::default()));
+    let trees = |app: &App| -> Vec<(IVec3, usize)> {
+        let w = app.world().get::<VolumeState>(volume).unwrap().world();
+        let flat = w.flat().unwrap();
+        flat.coords()
+            .into_iter()
+            .filter_map(|c| Some((c, flat.tree(c)? as *const _ as usize)))
+            .collect()
+    };
+    let before = trees(&app);
+    // Inside chunk (1, 0, 1) (4 to 8 along x and z), three cells from its sides;
+    // its top is 0.4 below chunk (1, 1, 1), whose one-cell halo it reaches.
+    let centre = Vec3::new(6.0, 3.1, 6.0);
+    let reached = [IVec3::new(1, 0, 1), IVec3::new(1, 1, 1)];
+    app.world_mut().write_message(ApplyEdit {
+        volume,
+        brush: Brush::sphere(centre, 0.5, BrushOp::Paint).with_material(3),
+    });
+    app.update();
+    let applied: Vec<EditApplied> = app
+        .world_mut()
+        .resource_mut::<Messages<EditApplied>>()
+        .drain()
+        .collect();
+    assert_eq!(applied.len(), 1);
+    let rebuilt: Vec<IVec3> = applied[0].rebuilt.iter().map(|k| k.coord).collect();
+    assert_eq!(rebuilt, reached);
+    settle(&mut app, volume);
+    let after = trees(&app);
+    assert_eq!(after.len(), before.len());
+    for ((c, old), (c2, new)) in before.iter().zip(&after) {
+        assert_eq!(c, c2);
+        assert_eq!(
+            old != new,
+            reached.contains(c),
+            "chunk {c} rebuilt: {}",
+            old != new
+        );
+    }
+    // The painted spot shows snow on layer 3; the rest of the ground keeps its
+    // grass (layer 0) and sums to one.
+    let (mut painted, mut grass) = (0, 0);
+    for (positions, lo, hi) in shown_meshes(&mut app) {
+        let (lo, hi) = (lo.expect("layer weights"), hi.expect("layer weights"));
+        for ((p, l), h) in positions.iter().zip(&lo).zip(&hi) {
+            let sum: f32 = l.iter().chain(h).sum();
+            assert!((sum - 1.0).abs() < 1e-5, "weights {l:?} {h:?} at {p:?}");
+            let d = Vec3::from_array(*p).distance(centre);
+            if d < 0.4 {
+                assert!(l[3] > 0.99, "unpainted {l:?} at {p:?}, {d} from the stroke");
+                painted += 1;
+            } else if d > 0.6
+                && p[0] < 6.5
+                && Vec2::new(p[0], p[2]).distance(Vec2::splat(12.0)) > 2.0
+            {
+                assert!(l[0] > 0.99, "grass lost at {p:?}: {l:?}");
+                grass += 1;
+            }
+        }
+    }
+    assert!(
+        painted >= 3 && grass > 50,
+        "{painted} painted, {grass} grass vertices"
+    );
+}
