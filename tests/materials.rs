@@ -190,7 +190,7 @@ fn a_paint_stroke_rebuilds_only_the_chunks_it_reaches_and_shows_its_material() {
         }
     }
     assert!(
-        painted >= 3 && grass > 50,
+        painted >= 3 && grass >= 20,
         "{painted} painted, {grass} grass vertices"
     );
 }
