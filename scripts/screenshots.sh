@@ -29,7 +29,11 @@ fi
 dir=target/$([ "$profile" = dev ] || [ "$profile" = test ] && echo debug || echo "$profile")
 for ex in "${examples[@]}"; do
     if [ "$build" != 0 ]; then
-        cargo build -q --profile "$profile" --workspace --example "$ex"
+        # The inspector example needs its feature (a second build of Bevy's
+        # render crates with the inspector's features; not in the default list).
+        features=()
+        [ "$ex" = inspector ] && features=(--features bevy_kdcontour/inspector)
+        cargo build -q --profile "$profile" --workspace --example "$ex" "${features[@]}"
     fi
     test -x "$dir/examples/$ex" || { echo "error: $dir/examples/$ex is not built"; exit 1; }
     out=$out_dir/$ex.png

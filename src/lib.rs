@@ -76,6 +76,8 @@ use bevy::prelude::*;
 
 #[cfg(feature = "avian")]
 pub use avian3d;
+#[cfg(feature = "inspector")]
+pub use bevy_inspector_egui;
 pub use kdcontour;
 
 pub mod chunks;
