@@ -49,7 +49,7 @@ pub(crate) fn update_lod(
         // change keeps its threshold until the change ends, so the change is
         // never starved by re-extractions.
         let mut keys: Vec<_> = state.slots.keys().copied().collect();
-        keys.sort_by_key(|k| k.order());
+        keys.sort_unstable_by_key(|k| k.order()); // keys are unique
         for c in keys {
             // A chunk's threshold is in squared cells of its own level: it follows
             // the curve at its distance in those cells.
@@ -62,7 +62,9 @@ pub(crate) fn update_lod(
             }
             let have = state.world().threshold(&c);
             let differs = if local.is_some() && have > 0.0 && want > 0.0 {
-                (want / have).ln().abs() > (1.0 + lod.hysteresis).ln()
+                // |ln(want / have)| > ln(1 + hysteresis), without the logarithms.
+                let (ratio, band) = (want / have, 1.0 + lod.hysteresis);
+                ratio > band || ratio * band < 1.0
             } else {
                 want != have
             };

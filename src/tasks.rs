@@ -209,6 +209,11 @@ fn schedule_tasks(
             [Work::Extract, Work::Build]
         };
         for work in order {
+            // Finding and sorting the waiting chunks costs more than anything
+            // else here with many chunks: not when no task can start.
+            if in_flight >= settings.max_tasks_in_flight {
+                return;
+            }
             for c in state.waiting(work) {
                 if in_flight >= settings.max_tasks_in_flight {
                     return;

@@ -48,6 +48,7 @@ use crate::mesh::IndexedMesh;
 use crate::settings::Settings;
 use glam::{IVec3, UVec3, Vec3};
 use std::collections::HashMap;
+use std::hash::BuildHasherDefault;
 use std::sync::Arc;
 
 /// Largest `|chunk coordinate| * chunk_res` on any axis: lattice coordinates stay
@@ -80,7 +81,8 @@ pub struct ChunkWorld {
     pub settings: Settings,
     bounds: Option<UVec3>,
     default_threshold: f32,
-    slots: HashMap<IVec3, Slot>,
+    // Looked up by the thousand per frame in the plugin: the fast chunk hasher.
+    slots: HashMap<IVec3, Slot, BuildHasherDefault<KeyHasher>>,
 }
 
 impl ChunkWorld {
@@ -158,7 +160,7 @@ impl ChunkWorld {
             settings,
             bounds: None,
             default_threshold: threshold,
-            slots: HashMap::new(),
+            slots: HashMap::default(),
         };
         world.chunk_grid(IVec3::ZERO).validate()?;
         Ok(world)
