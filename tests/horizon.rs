@@ -8,7 +8,7 @@ mod common;
 
 use bevy::prelude::*;
 use bevy_kdcontour::prelude::*;
-use common::{app_with, settle, shown};
+use common::{app_with, applied_edits, settle, shown};
 use kdcontour::field::FnField;
 use kdcontour::{Field, IndexedMesh, LevelWorld};
 use std::collections::HashMap;
@@ -212,11 +212,7 @@ fn a_flight_with_edits_keeps_the_horizon_whole_and_loses_nothing() {
         }
         app.update();
         if frame == 60 {
-            let applied: Vec<EditApplied> = app
-                .world_mut()
-                .resource_mut::<Messages<EditApplied>>()
-                .drain()
-                .collect();
+            let applied = applied_edits(&mut app);
             far_rebuilt = applied.last().unwrap().rebuilt.clone();
         }
         let state = app.world().get::<VolumeState>(v).unwrap();

@@ -9,7 +9,7 @@ use bevy::mesh::VertexAttributeValues;
 use bevy::prelude::*;
 use bevy_kdcontour::material::layer_weights;
 use bevy_kdcontour::prelude::*;
-use common::{app_with, settle};
+use common::{app_with, applied_edits, settle};
 use kdcontour::material::MaterialBlend;
 use kdcontour::Field;
 use std::sync::Arc;
@@ -148,11 +148,7 @@ fn a_paint_stroke_rebuilds_only_the_chunks_it_reaches_and_shows_its_material() {
         brush: Brush::sphere(centre, 0.5, BrushOp::Paint).with_material(3),
     });
     app.update();
-    let applied: Vec<EditApplied> = app
-        .world_mut()
-        .resource_mut::<Messages<EditApplied>>()
-        .drain()
-        .collect();
+    let applied = applied_edits(&mut app);
     assert_eq!(applied.len(), 1);
     let rebuilt: Vec<IVec3> = applied[0].rebuilt.iter().map(|k| k.coord).collect();
     assert_eq!(rebuilt, reached);

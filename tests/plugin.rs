@@ -8,7 +8,7 @@ mod common;
 use bevy::prelude::*;
 use bevy_kdcontour::headless::HeadlessPlugins;
 use bevy_kdcontour::prelude::*;
-use common::{app_with, settle, shown};
+use common::{app_with, applied_edits, settle, shown};
 use kdcontour::edit::EditedField;
 use kdcontour::{ChunkWorld, CsgNode, Field, IndexedMesh};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -151,11 +151,7 @@ fn one_edit_rebuilds_exactly_the_chunks_it_meets() {
         brush: Brush::sphere(centre, 0.1, BrushOp::Add),
     });
     app.update();
-    let applied: Vec<EditApplied> = app
-        .world_mut()
-        .resource_mut::<Messages<EditApplied>>()
-        .drain()
-        .collect();
+    let applied = applied_edits(&mut app);
     assert_eq!(applied.len(), 1);
     assert!(applied[0].rebuilt.iter().all(|k| k.level == 0));
     let mut rebuilt: Vec<IVec3> = applied[0].rebuilt.iter().map(|k| k.coord).collect();

@@ -7,6 +7,14 @@ use bevy::prelude::*;
 use bevy_kdcontour::headless::{run_until_settled, HeadlessPlugins};
 use bevy_kdcontour::prelude::*;
 
+/// The edits applied since the last call (drained).
+pub fn applied_edits(app: &mut App) -> Vec<EditApplied> {
+    app.world_mut()
+        .resource_mut::<Messages<EditApplied>>()
+        .drain()
+        .collect()
+}
+
 /// A headless app with the plugin group and these LOD settings.
 pub fn app_with(lod: LodSettings) -> App {
     let mut app = App::new();
