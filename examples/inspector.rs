@@ -14,7 +14,7 @@ mod common;
 
 use bevy::prelude::*;
 use bevy_kdcontour::bevy_inspector_egui::{bevy_inspector, DefaultInspectorConfigPlugin};
-use bevy_kdcontour::kdcontour::field::layers::{scene_node, starter};
+use bevy_kdcontour::kdcontour::field::layers::{starter, Layers};
 use bevy_kdcontour::kdcontour::Field;
 use bevy_kdcontour::panel::bevy_egui::{
     egui, EguiContext, EguiPrimaryContextPass, PrimaryEguiContext,
@@ -86,18 +86,10 @@ fn inspector_windows(world: &mut World) {
 }
 
 fn setup(mut commands: Commands, mut materials: ResMut<Assets<StandardMaterial>>) {
-    let node = scene_node(&starter());
-    let field: Arc<dyn Field> = Arc::new(
-        bevy_kdcontour::kdcontour::field::csg::CsgNode::Transform {
-            translate: Vec3::splat(HALF),
-            rotate_axis: Vec3::Y,
-            rotate_degrees: 0.0,
-            scale: 1.0,
-            child: Box::new(node),
-        }
-        .compile()
-        .unwrap_or_else(|e| common::fail(e)),
-    );
+    // The starter scene in the volume's local space (corner at -HALF), as the
+    // csg_editor places it.
+    let layers = Layers::new(starter()).unwrap_or_else(|e| common::fail(e));
+    let field: Arc<dyn Field> = Arc::new(layers.field_at(Vec3::splat(HALF)));
     let (chunks, res) = (4, 16);
     let material = materials.add(StandardMaterial {
         base_color: Color::srgb(0.8, 0.72, 0.62),
