@@ -6,7 +6,8 @@
 //!   chunk within reach of the camera carrying a trimesh collider, and a
 //!   collider anchor (a falling body's) moving through the volume, so chunks gain
 //!   and lose colliders every frame; it prints the plugin's main-thread time per
-//!   frame (mean, p99, max) and the chunks with colliders.
+//!   frame (mean, p99, max), the chunks with colliders, and the main thread's
+//!   processor time of whole app updates with and without a physics step.
 //! - `horizon_4096`: the terrain demo's field seen 4,096 cells out through chunk
 //!   levels (32-cell chunks, meshing on 2 task threads), the camera flying at 50
 //!   cells a second at 60 frames a second. Before measuring it prints the chunk
@@ -38,7 +39,14 @@ fn frame(c: &mut Criterion) {
                 ..Default::default()
             },
         },
-    ));
+    ))
+    // The bench builds with feature `avian` (the tests' dev-dependency turns it
+    // on), which would give every chunk here a collider: those are measured by
+    // `frame_colliders`, so this one is the plugin without them.
+    .insert_resource(bevy_kdcontour::ColliderSettings {
+        enabled: false,
+        ..Default::default()
+    });
     // 10 x 10 x 10 chunks of 8^3 cells around a sphere.
     let field: Arc<dyn kdcontour::Field> = Arc::new(kdcontour::field::FnField(|p: Vec3| {
         (p - Vec3::splat(1.0)).length() - 0.8
@@ -248,77 +256,137 @@ fn thread_cpu_ms() -> f64 {
 }
 
 /// [`frame`] with colliders: the plugin's main thread per frame while chunks gain
-/// and lose colliders around a moving anchor.
+/// and lose colliders around a moving anchor. The same volume with physics on
+/// and colliders off is measured after it (as many updates, no criterion), so
+/// avian's own step shows apart from what the colliders add.
 fn frame_colliders(c: &mut Criterion) {
-    use bevy_kdcontour::avian3d::prelude::*;
-    use bevy_kdcontour::{ColliderAnchor, ColliderSettings};
-    let mut app = App::new();
-    app.add_plugins((
-        HeadlessPlugins,
-        KdContourPlugins::default(),
-        PhysicsPlugins::default(),
-    ))
-    .insert_resource(ColliderSettings {
-        // Chunks are 0.2 units: about 250 chunks around the camera and anchor.
-        distance: 0.5,
-        ..Default::default()
-    });
-    // `App::run` does this; avian sets up its diagnostics resources in `finish`.
-    app.finish();
-    app.cleanup();
-    let field: Arc<dyn kdcontour::Field> = Arc::new(kdcontour::field::FnField(|p: Vec3| {
-        (p - Vec3::splat(1.0)).length() - 0.8
-    }));
-    let volume = app
-        .world_mut()
-        .spawn(KdVolume::new(field, UVec3::splat(10), 8, 2.0 / 80.0))
-        .id();
-    app.world_mut()
-        .spawn((LodCamera, Transform::from_xyz(1.0, 1.9, 1.0)));
-    let anchor = app
-        .world_mut()
-        .spawn((ColliderAnchor, Transform::from_xyz(1.0, 1.0, 0.1)))
-        .id();
-    assert!(
-        run_until_settled(&mut app, volume, 20_000, Duration::ZERO),
-        "the volume did not settle"
-    );
-    let mut t = 0.0f32;
-    let mut frames: Vec<f64> = Vec::new();
-    let mut cpu: Vec<f64> = Vec::new();
+    let mut on = ColliderRun::new(true);
     let mut g = c.benchmark_group("frame_1000_chunks_colliders");
     g.sample_size(50).measurement_time(Duration::from_secs(5));
-    g.bench_function("anchor_moving", |b| {
-        b.iter(|| {
-            t += 0.02;
-            app.world_mut()
-                .get_mut::<Transform>(anchor)
-                .unwrap()
-                .translation = Vec3::new(1.0 + 0.9 * t.cos(), 1.0, 1.0 + 0.9 * t.sin());
-            let c0 = thread_cpu_ms();
-            app.update();
-            cpu.push(thread_cpu_ms() - c0);
-            frames.push(app.world().resource::<KdContourStats>().main_thread_ms);
-        })
-    });
+    g.bench_function("anchor_moving", |b| b.iter(|| on.update()));
     g.finish();
-    let with = app
-        .world_mut()
-        .query::<(&KdChunk, &Collider)>()
-        .iter(app.world())
-        .count();
-    let (Some((mean, p99, max)), Some((cpu_mean, cpu_p99, cpu_max))) =
-        (spread(&mut frames), spread(&mut cpu))
-    else {
-        return;
-    };
-    println!(
-        "frame_1000_chunks_colliders: {with} chunks with colliders at the end; plugin \
-         main thread per frame (clock) over {} frames: mean {mean:.3} ms, p99 {p99:.3} ms, \
-         max {max:.3} ms; whole app update incl. avian's step, main thread processor \
-         time: mean {cpu_mean:.3} ms, p99 {cpu_p99:.3} ms, max {cpu_max:.3} ms",
-        frames.len(),
-    );
+    on.report("colliders on");
+    let mut off = ColliderRun::new(false);
+    for _ in 0..on.frames.len() {
+        off.update();
+    }
+    off.report("colliders off (baseline)");
+}
+
+/// One app of [`frame_colliders`] and what its updates measured.
+struct ColliderRun {
+    app: App,
+    anchor: Entity,
+    t: f32,
+    /// The plugin's main-thread time per update (its clock).
+    frames: Vec<f64>,
+    /// Main-thread processor time of whole app updates, apart by whether avian
+    /// stepped in them (a fixed 64 Hz step: about one update in 15 here, where
+    /// updates follow each other with no frame pacing).
+    cpu: Vec<f64>,
+    cpu_step: Vec<f64>,
+}
+
+impl ColliderRun {
+    /// The settled 1,000-chunk volume, avian on, chunk colliders on or off.
+    fn new(enabled: bool) -> Self {
+        use bevy_kdcontour::avian3d::prelude::*;
+        use bevy_kdcontour::{ColliderAnchor, ColliderSettings};
+        let mut app = App::new();
+        app.add_plugins((
+            HeadlessPlugins,
+            KdContourPlugins::default(),
+            PhysicsPlugins::default(),
+        ))
+        .insert_resource(ColliderSettings {
+            enabled,
+            // Chunks are 0.2 units: about 250 chunks around the camera and anchor.
+            distance: 0.5,
+            ..Default::default()
+        });
+        // `App::run` does this; avian sets up its diagnostics resources in `finish`.
+        app.finish();
+        app.cleanup();
+        let field: Arc<dyn kdcontour::Field> = Arc::new(kdcontour::field::FnField(|p: Vec3| {
+            (p - Vec3::splat(1.0)).length() - 0.8
+        }));
+        let volume = app
+            .world_mut()
+            .spawn(KdVolume::new(field, UVec3::splat(10), 8, 2.0 / 80.0))
+            .id();
+        app.world_mut()
+            .spawn((LodCamera, Transform::from_xyz(1.0, 1.9, 1.0)));
+        let anchor = app
+            .world_mut()
+            .spawn((ColliderAnchor, Transform::from_xyz(1.0, 1.0, 0.1)))
+            .id();
+        assert!(
+            run_until_settled(&mut app, volume, 20_000, Duration::ZERO),
+            "the volume did not settle"
+        );
+        Self {
+            app,
+            anchor,
+            t: 0.0,
+            frames: Vec::new(),
+            cpu: Vec::new(),
+            cpu_step: Vec::new(),
+        }
+    }
+
+    /// Moves the anchor a step and runs one measured update.
+    fn update(&mut self) {
+        self.t += 0.02;
+        let t = self.t;
+        let app = &mut self.app;
+        app.world_mut()
+            .get_mut::<Transform>(self.anchor)
+            .unwrap()
+            .translation = Vec3::new(1.0 + 0.9 * t.cos(), 1.0, 1.0 + 0.9 * t.sin());
+        let step0 = app.world().resource::<Time<Fixed>>().elapsed();
+        let c0 = thread_cpu_ms();
+        app.update();
+        let ms = thread_cpu_ms() - c0;
+        if app.world().resource::<Time<Fixed>>().elapsed() == step0 {
+            self.cpu.push(ms);
+        } else {
+            self.cpu_step.push(ms);
+        }
+        self.frames
+            .push(app.world().resource::<KdContourStats>().main_thread_ms);
+    }
+
+    /// Prints the figures.
+    fn report(&mut self, what: &str) {
+        use bevy_kdcontour::avian3d::prelude::Collider;
+        let with = self
+            .app
+            .world_mut()
+            .query::<(&KdChunk, &Collider)>()
+            .iter(self.app.world())
+            .count();
+        let (n, steps) = (self.frames.len(), self.cpu_step.len());
+        let (
+            Some((mean, p99, max)),
+            Some((cpu_mean, cpu_p99, cpu_max)),
+            Some((st_mean, st_p99, st_max)),
+        ) = (
+            spread(&mut self.frames),
+            spread(&mut self.cpu),
+            spread(&mut self.cpu_step),
+        )
+        else {
+            return;
+        };
+        println!(
+            "frame_1000_chunks_colliders, {what}: {with} chunks with colliders at the end; \
+             plugin main thread per frame (clock) over {n} frames: mean {mean:.3} ms, p99 \
+             {p99:.3} ms, max {max:.3} ms; whole app update, main thread processor time: \
+             without a physics step mean {cpu_mean:.3} ms, p99 {cpu_p99:.3} ms, max \
+             {cpu_max:.3} ms; with avian's step ({steps} updates) mean {st_mean:.3} ms, p99 \
+             {st_p99:.3} ms, max {st_max:.3} ms"
+        );
+    }
 }
 
 criterion_group!(benches, frame, frame_colliders, horizon);

@@ -24,7 +24,7 @@ use crate::volume::{KdChunk, LodCamera};
 use crate::KdContourSystems;
 use avian3d::prelude::{Collider, CollisionLayers, RigidBody, TrimeshFlags};
 use bevy::prelude::*;
-use kdcontour::world::{ChunkKey, ChunkSet};
+use kdcontour::world::ChunkKey;
 use kdcontour::IndexedMesh;
 
 /// Chunk colliders near the camera and anchors.
@@ -169,7 +169,11 @@ fn want_colliders(
             .iter()
             .map(|a| to_local.transform_point3(a.translation()))
             .collect();
-        let mut want = ChunkSet::default();
+        // Marks on the slots rather than a set of keys: the near chunks' seam
+        // owners are looked up once each, and nothing is hashed twice.
+        for slot in state.slots.values_mut() {
+            slot.wants_collider = false;
+        }
         if settings.enabled {
             let near: Vec<ChunkKey> = state
                 .slots
@@ -181,15 +185,20 @@ fn want_colliders(
                 })
                 .copied()
                 .collect();
+            // A chunk's seam owners (itself among them) show part of its
+            // surface, so they carry colliders with it.
             for k in near {
-                want.extend(state.world().seam_owners_touching(&k));
-                want.insert(k);
+                for o in state.world.seam_owners_touching(&k) {
+                    if let Some(slot) = state.slots.get_mut(&o) {
+                        slot.wants_collider = true;
+                    }
+                }
             }
         }
         let mut changed: Vec<ChunkKey> = state
             .slots
             .iter()
-            .filter(|(k, s)| s.collider != want.contains(k))
+            .filter(|(_, s)| s.collider != s.wants_collider)
             .map(|(k, _)| *k)
             .collect();
         changed.sort_by_key(|k| k.order());

@@ -10,6 +10,7 @@ use crate::stats::MainThreadClock;
 use crate::volume::{lod_camera, LodCamera};
 use crate::KdContourSystems;
 use bevy::prelude::*;
+use kdcontour::world::ChunkKey;
 
 /// Sets chunk thresholds from the camera.
 pub struct LodPlugin;
@@ -47,28 +48,36 @@ pub(crate) fn update_lod(
         let local = cam.map(|c| vol_tf.affine().inverse().transform_point3(c));
         // A chunk whose new threshold would re-extract a chunk held for a level
         // change keeps its threshold until the change ends, so the change is
-        // never starved by re-extractions.
-        let mut keys: Vec<_> = state.slots.keys().copied().collect();
-        keys.sort_unstable_by_key(|k| k.order()); // keys are unique
-        for c in keys {
-            // A chunk's threshold is in squared cells of its own level: it follows
-            // the curve at its distance in those cells.
-            let mut want = match local {
-                Some(p) => curve.threshold(state.distance(p, &c) / (1u32 << c.level) as f32),
-                None => settings.default_threshold,
-            };
-            if let Some(cap) = state.collider_cap(&c) {
-                want = want.min(cap);
-            }
-            let have = state.world().threshold(&c);
-            let differs = if local.is_some() && have > 0.0 && want > 0.0 {
-                // |ln(want / have)| > ln(1 + hysteresis), without the logarithms.
-                let (ratio, band) = (want / have, 1.0 + lod.hysteresis);
-                ratio > band || ratio * band < 1.0
-            } else {
-                want != have
-            };
-            if differs && !state.shows_held(&c) {
+        // never starved by re-extractions. Every chunk is weighed each frame, in any order; only those whose
+        // threshold changes are sorted (into the world's order, so messages
+        // and queued work do not depend on hashing).
+        let mut changes: Vec<(ChunkKey, f32)> = state
+            .slots
+            .iter()
+            .filter_map(|(c, slot)| {
+                // A chunk's threshold is in squared cells of its own level: it
+                // follows the curve at its distance in those cells.
+                let mut want = match local {
+                    Some(p) => curve.threshold(state.distance(p, c) / (1u32 << c.level) as f32),
+                    None => settings.default_threshold,
+                };
+                if let Some(cap) = state.collider_cap(slot) {
+                    want = want.min(cap);
+                }
+                let have = state.world().threshold(c);
+                let differs = if local.is_some() && have > 0.0 && want > 0.0 {
+                    // |ln(want / have)| > ln(1 + hysteresis), without the logarithms.
+                    let (ratio, band) = (want / have, 1.0 + lod.hysteresis);
+                    ratio > band || ratio * band < 1.0
+                } else {
+                    want != have
+                };
+                differs.then_some((*c, want))
+            })
+            .collect();
+        changes.sort_unstable_by_key(|(k, _)| k.order()); // keys are unique
+        for (c, want) in changes {
+            if !state.shows_held(&c) {
                 state.world_mut().set_threshold(&c, want);
                 state.mark_extract(&c);
                 changed.write(LodChanged {

@@ -67,6 +67,9 @@ pub(crate) struct ChunkSlot {
     /// The chunk is near the camera or a collider anchor: its meshes carry a
     /// collider (feature `avian`).
     pub collider: bool,
+    /// Whether [`crate::colliders`] found this frame that it should carry one
+    /// (its scratch mark while it reconciles `collider`).
+    pub(crate) wants_collider: bool,
     /// It has shown a mesh (or its lack of surface) at least once.
     pub shown: bool,
 }
@@ -110,7 +113,7 @@ pub(crate) struct Transition {
 /// The meshing state of one volume (added by the plugin).
 #[derive(Component)]
 pub struct VolumeState {
-    world: VolumeWorld,
+    pub(crate) world: VolumeWorld,
     field: EditedField,
     /// The volume's field and iso the edits are layered on.
     pub(crate) base: (Arc<dyn Field>, f32),
@@ -255,14 +258,14 @@ impl VolumeState {
         }
     }
 
-    /// The threshold chunk `c` may not be cut coarser than because it carries a
+    /// The threshold a chunk (its slot) may not be cut coarser than because it carries a
     /// collider (feature `avian`), if any.
-    pub(crate) fn collider_cap(&self, c: &ChunkKey) -> Option<f32> {
+    pub(crate) fn collider_cap(&self, slot: &ChunkSlot) -> Option<f32> {
         #[cfg(feature = "avian")]
-        if self.slots.get(c).is_some_and(|s| s.collider) {
+        if slot.collider {
             return self.colliders.map(|(threshold, _)| threshold);
         }
-        let _ = c;
+        let _ = slot;
         None
     }
 
@@ -342,6 +345,7 @@ impl VolumeState {
                 held: false,
                 shown: false,
                 collider: false,
+                wants_collider: false,
             },
         );
         self.mark_build(&c);

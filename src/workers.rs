@@ -16,8 +16,27 @@
 //! `cargo bench --bench frame -- horizon`, 2 cores). Many chunks are in flight
 //! at once ([`KdContourSettings::max_tasks_in_flight`](crate::KdContourSettings)),
 //! so the workers stay busy while there is work.
+//!
+//! The workers run at a lower priority ([`WORKER_NICE`], Linux) than the
+//! threads that run the frame's systems, so meshing never keeps a frame waiting
+//! for a core.
 
 use bevy::tasks::{AsyncComputeTaskPool, Task};
+
+/// The niceness of a worker thread (Unix): 10 of 19, so a core the frame's
+/// threads want is theirs at once while the workers keep every idle core busy.
+pub const WORKER_NICE: i32 = 10;
+
+/// Lowers the calling thread's scheduling priority to [`WORKER_NICE`]. On Linux
+/// a niceness is each thread's own; elsewhere nothing changes.
+fn lower_priority() {
+    #[cfg(target_os = "linux")]
+    // SAFETY: `setpriority` only reads its integer arguments; `who` 0 is the
+    // calling thread on Linux. A refusal (a sandbox) leaves the priority as is.
+    unsafe {
+        libc::setpriority(libc::PRIO_PROCESS, 0, WORKER_NICE);
+    }
+}
 
 /// One queued job.
 type Job = Box<dyn FnOnce() + Send>;
@@ -45,6 +64,7 @@ impl ChunkWorkers {
                 let pool = rayon::ThreadPoolBuilder::new()
                     .num_threads(1)
                     .thread_name(move |_| format!("kdcontour-chunks-{i}"))
+                    .start_handler(|_| lower_priority())
                     .build()
                     .expect("the system refused a chunk worker thread");
                 let jobs = jobs.clone();
@@ -132,6 +152,20 @@ mod tests {
             assert_eq!(sq, (i * i) as u64);
             assert!(name.is_some_and(|n| n.starts_with("kdcontour-chunks-")));
         }
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn workers_run_below_the_frame_threads_priority() {
+        pool();
+        // SAFETY: `getpriority` reads its integer arguments only.
+        let niceness = || unsafe { libc::getpriority(libc::PRIO_PROCESS, 0) };
+        let ours = niceness();
+        let workers = ChunkWorkers::new(1);
+        // A thread may always raise its niceness, never lower it unprivileged:
+        // a test run already nicer than the workers' keeps its own.
+        assert_eq!(block_on(workers.run(niceness)), WORKER_NICE.max(ours));
+        assert_eq!(niceness(), ours, "the calling thread keeps its priority");
     }
 
     #[test]
