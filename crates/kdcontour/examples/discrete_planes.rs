@@ -1,7 +1,8 @@
 //! Boada and Navazo's claim checked: polygons of the discrete-planes octree
 //! against Marching Cubes on the same samples, with time, error and whether each
 //! mesh is closed and manifold. One row per input: the CT phantom at its native
-//! resolution and every built-in scene.
+//! resolution, the public brain MRI of `scripts/fetch-scan.sh` at its native
+//! resolution (iso 100, when it has been fetched) and every built-in scene.
 //!
 //! `cargo run --release -p kdcontour --example discrete_planes -- [res] [phantom voxels] [reps]`
 //! (defaults 64, 128, 3; one thread; times are the best of `reps`).
@@ -13,7 +14,9 @@
 //! two-sided distance (in cells) of both meshes; closed and manifold.
 
 use kdcontour::discrete_planes;
-use kdcontour::io::volume::phantom;
+use kdcontour::field::volume::Inside;
+use kdcontour::io::input::Input;
+use kdcontour::io::volume::{load_nifti, phantom};
 use kdcontour::meshers::{self, Mesher, Sampled};
 use kdcontour::validate::{validate_with, Checks};
 use kdcontour::{scenes, Field, Grid, IndexedMesh, Settings};
@@ -53,10 +56,32 @@ fn main() {
     let (lo, hi) = vol.bounds();
     let grid = Grid::fit(lo, hi, voxels - 1);
     row("phantom", &vol, &grid, reps, &settings);
+    if let Some((field, grid)) = mni152() {
+        row("mni152", &*field, &grid, reps, &settings);
+    }
     for name in scenes::SCENES {
         let scene = scenes::scene(name).expect("built-in");
         row(name, &*scene.field, &Grid::cube(1.0, res), reps, &settings);
     }
+}
+
+/// The public brain MRI at one cell per voxel, if `scripts/fetch-scan.sh` has
+/// fetched it (iso 100: the brain's outer surface, as in `tests/public_scan.rs`).
+fn mni152() -> Option<(Box<dyn Field>, Grid)> {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/scans/mni152_t1.nii.gz");
+    if !path.exists() {
+        eprintln!(
+            "mni152: absent ({}); scripts/fetch-scan.sh fetches it",
+            path.display()
+        );
+        return None;
+    }
+    let vol = load_nifti(&path, 100.0, Inside::Above).expect("the fetched scan loads");
+    let input = Input::volume(&path, vol);
+    let res = input.native_res.expect("a volume has a native resolution");
+    let grid = input.grid(res).expect("its grid");
+    Some((input.field, grid))
 }
 
 /// The best time of `reps` runs of `f`, in ms, and its last result.

@@ -5,8 +5,12 @@
 //!
 //! `cargo run --release -p kdcontour --example skeleton_climbing -- [scenes] [res] [blocks]`
 //! e.g. `-- phantom,csg_mix,gyroid,sphere 128 1,2,4,8,16` (`phantom` is the
-//! Shepp-Logan head of `kdcontour phantom` at `res` voxels, iso 1.5).
+//! Shepp-Logan head of `kdcontour phantom` at `res` voxels, iso 1.5; `mni152`
+//! is the public brain MRI `scripts/fetch-scan.sh` fetches, at one cell per
+//! voxel whatever `res`, iso 100).
 
+use kdcontour::field::volume::Inside;
+use kdcontour::io::input::Input;
 use kdcontour::io::volume;
 use kdcontour::meshers::{self, Mesher};
 use kdcontour::skeleton_climbing::skeleton_climbing;
@@ -47,6 +51,16 @@ fn main() {
             let v = volume::phantom(res);
             let (lo, hi) = v.bounds();
             (Box::new(v), Grid::fit(lo, hi, res))
+        } else if name == "mni152" {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../../data/scans/mni152_t1.nii.gz");
+            let v = volume::load_nifti(&path, 100.0, Inside::Above).unwrap_or_else(|e| {
+                panic!("{e} (scripts/fetch-scan.sh fetches {})", path.display())
+            });
+            let input = Input::volume(&path, v);
+            let native = input.native_res.expect("a volume has a native resolution");
+            let grid = input.grid(native).expect("its grid");
+            (input.field, grid)
         } else {
             let scene = scenes::scene(name).unwrap_or_else(|e| panic!("{e}"));
             (scene.field, Grid::cube(1.0, res))
