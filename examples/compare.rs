@@ -55,6 +55,8 @@ const SHOWN: [(&str, Mesher); 5] = [
 /// One mesher's view.
 struct Row {
     name: &'static str,
+    /// Its view's colour, which its name in the panel takes.
+    colour: Color,
     mesher: Mesher,
     /// The retained tree (octree and k-d tree).
     tree: Option<KdTree>,
@@ -151,6 +153,7 @@ fn setup(
         ));
         cmp.rows.push(Row {
             name,
+            colour,
             mesher,
             tree: None,
             triangles: 0,
@@ -263,13 +266,14 @@ fn panel(
             }
             ui.separator();
             egui::Grid::new("rows").num_columns(3).show(ui, |ui| {
-                ui.strong("mesher");
+                ui.strong("mesher (left to right)");
                 ui.strong("triangles");
                 ui.strong("vs MC");
                 ui.end_row();
                 let mc = cmp.rows.first().map(|r| r.triangles).unwrap_or(0).max(1);
                 for row in &cmp.rows {
-                    ui.label(row.name);
+                    let [r, g, b, _] = row.colour.to_srgba().to_u8_array();
+                    ui.colored_label(egui::Color32::from_rgb(r, g, b), row.name);
                     ui.label(row.triangles.to_string());
                     ui.label(format!("{:.2}", row.triangles as f64 / mc as f64));
                     ui.end_row();

@@ -166,6 +166,8 @@ fn main() {
         scripted,
         save,
     })
+    // Walking stands on the chunk colliders (`common::add_plugins` starts them off).
+    .insert_resource(bevy_kdcontour::ColliderSettings::default())
     .add_plugins((PhysicsPlugins::default(), TerrainMaterialPlugin))
     .init_resource::<common::walk::Walking>()
     .add_systems(Startup, setup)

@@ -1,5 +1,7 @@
 //! A scanned volume as a surface: a raw voxel file or a NIfTI-1 scan (`.nii`,
-//! `.nii.gz`), or, with no file, a generated CT of the 3-D Shepp-Logan head phantom.
+//! `.nii.gz`), or, with no file, a generated CT of the 3-D Shepp-Logan head phantom
+//! (each voxel its partial volume, as a scanner measures it; `--segmented` for
+//! the density at each voxel's centre, a staircase between voxels).
 //! The iso-value slider moves the surface through the scan's values (skull,
 //! brain, ventricles); every change re-meshes the chunks in the background from
 //! the voxels already in memory (the file is read once) while the old mesh stays
@@ -20,7 +22,9 @@ mod common;
 use bevy::prelude::*;
 use bevy_kdcontour::kdcontour::field::volume::{Inside, SampledVolume};
 use bevy_kdcontour::kdcontour::io::input::{parse_uvec3, parse_vec3};
-use bevy_kdcontour::kdcontour::io::volume::{is_nifti, load_nifti, load_raw, phantom, VoxelType};
+use bevy_kdcontour::kdcontour::io::volume::{
+    is_nifti, load_nifti, load_raw, phantom, phantom_scanned, VoxelType,
+};
 use bevy_kdcontour::panel::bevy_egui::{egui, EguiContexts, EguiPrimaryContextPass};
 use bevy_kdcontour::panel::KdContourPanel;
 use bevy_kdcontour::prelude::*;
@@ -55,6 +59,10 @@ struct Args {
     /// Phantom voxels per side.
     #[arg(long, default_value_t = 96)]
     phantom: u32,
+    /// Phantom voxels hold the density at their centres (inside or out, a
+    /// staircase between voxels), not the partial volumes a scanner measures.
+    #[arg(long)]
+    segmented: bool,
     /// Cells along the longest side (default: one per voxel, as the CLI).
     #[arg(long)]
     res: Option<u32>,
@@ -83,9 +91,16 @@ fn load(args: &Args) -> Result<(SampledVolume, String), String> {
         if !(8..=256).contains(&args.phantom) {
             return Err(format!("--phantom must be 8 to 256, got {}", args.phantom));
         }
-        let mut v = phantom(args.phantom);
+        let (mut v, kind) = if args.segmented {
+            (phantom(args.phantom), "centre samples")
+        } else {
+            (phantom_scanned(args.phantom), "partial volumes")
+        };
         v.inside = inside;
-        return Ok((v, format!("Shepp-Logan phantom, {}^3", args.phantom)));
+        return Ok((
+            v,
+            format!("Shepp-Logan phantom, {}^3, {kind}", args.phantom),
+        ));
     };
     let name = path.display().to_string();
     let v = if is_nifti(path) {
@@ -213,8 +228,11 @@ fn iso_panel(
 ) -> Result {
     let ctx = contexts.ctx_mut()?;
     let mut iso = scan.iso;
+    // Top right: the plugin's panel (top left) grows with the features on.
+    let right = ctx.content_rect().right();
     egui::Window::new("volume")
-        .default_pos([10.0, 330.0])
+        .pivot(egui::Align2::RIGHT_TOP)
+        .default_pos([right - 10.0, 10.0])
         .resizable(false)
         .show(ctx, |ui| {
             ui.label(&scan.name);

@@ -66,7 +66,8 @@ pub fn fixed(threshold: f32) -> KdContourSettings {
 
 /// Adds what every example runs on: Bevy's default plugins with the example's
 /// window, the meshing plugins with `settings` (start from [`preset`]), the egui
-/// panel, and the screenshot harness.
+/// panel, and the screenshot harness. Chunk colliders start off: only the
+/// terrain demo runs physics (it turns them on).
 pub fn add_plugins<'a>(
     app: &'a mut App,
     title: &str,
@@ -80,6 +81,12 @@ pub fn add_plugins<'a>(
         KdContourPanelPlugin { panel },
         ShotPlugin(shot.clone()),
     ))
+    // The examples build with feature `avian` (the terrain demo walks on the
+    // colliders); with no physics running, colliders would be wasted work.
+    .insert_resource(bevy_kdcontour::ColliderSettings {
+        enabled: false,
+        ..default()
+    })
 }
 
 /// Adds the screenshot harness when `--screenshot` was given.
