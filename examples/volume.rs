@@ -126,7 +126,8 @@ fn main() {
         ));
     }
     let iso = args.iso.unwrap_or(if args.file.is_none() {
-        1.5
+        // The phantom's skull (1.3 with partial volumes, 1.5 without).
+        volume.iso
     } else {
         0.5 * (range.0 + range.1)
     });

@@ -13,12 +13,22 @@ pub struct Phantom {
     /// The .nii or .nii.gz file to write (any case; other names are refused).
     #[arg(long)]
     out: PathBuf,
+    /// Each voxel holds its partial volume (the density averaged over it, as a
+    /// scanner measures it) instead of the density at its centre: the skull is
+    /// smooth between voxels, at iso 1.3 (whole from about 96 voxels).
+    #[arg(long)]
+    scanned: bool,
     #[command(flatten)]
     memory: Memory,
 }
 
 pub fn run(args: Phantom) -> Result<(), String> {
-    let Phantom { res, out, memory } = args;
+    let Phantom {
+        res,
+        out,
+        scanned,
+        memory,
+    } = args;
     if !(8..=1024).contains(&res) {
         return Err(format!("--res must be 8 to 1024, got {res}"));
     }
@@ -35,10 +45,16 @@ pub fn run(args: Phantom) -> Result<(), String> {
         .budget
         .check(format!("a phantom of {res}^3 voxels"), voxels * 8 + 352)
         .map_err(|e| e.to_string())?;
-    volume::write_nifti(&out, &volume::phantom(res)).map_err(|e| e.to_string())?;
+    let vol = if scanned {
+        volume::phantom_scanned(res)
+    } else {
+        volume::phantom(res)
+    };
+    volume::write_nifti(&out, &vol).map_err(|e| e.to_string())?;
     say!(
-        "wrote {} ({res}^3 voxels; the skull is at --iso 1.5)",
-        out.display()
+        "wrote {} ({res}^3 voxels; the skull is at --iso {})",
+        out.display(),
+        vol.iso
     );
     Ok(())
 }

@@ -344,6 +344,41 @@ fn an_inside_out_mesh_is_meshed_with_a_warning() {
 }
 
 #[test]
+fn the_scanned_phantom_has_a_whole_skull_at_its_iso() {
+    let dir = std::env::temp_dir().join(format!("kdcontour-cli-scanned-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let nii = dir.join("scanned.nii.gz");
+    let (code, out, err) = kdcontour(&[
+        "phantom",
+        "--res",
+        "96",
+        "--scanned",
+        "--out",
+        nii.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("--iso 1.3"), "{out}");
+    let (code, out, err) = kdcontour(&[
+        "mesh",
+        "--volume",
+        nii.to_str().unwrap(),
+        "--iso",
+        "1.3",
+        "--threshold",
+        "-1",
+        "--quick-checks",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    assert_eq!(v["watertight"], true, "{v}");
+    assert_eq!(v["manifold"], true, "{v}");
+    // The skull's outer and inner surfaces, each a sphere: no hole, no piece.
+    assert_eq!(v["euler"], 4, "{v}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn volumes_and_meshes_from_the_command_line() {
     let dir = std::env::temp_dir().join(format!("kdcontour-cli-vol-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

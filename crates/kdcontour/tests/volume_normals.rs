@@ -116,7 +116,7 @@ fn neighbouring_normals_on_the_phantom_skull_turn_smoothly() {
 }
 
 /// The bounds on the scanned phantom (its voxels' partial volumes), degrees:
-/// measured 3.4 and 8.0 with the spline gradient.
+/// measured 3.6 and 7.5 with the spline gradient (at its iso, 1.3).
 const PARTIAL_P95_BOUND: f32 = 6.0;
 /// See [`PARTIAL_P95_BOUND`].
 const PARTIAL_MAX_BOUND: f32 = 14.0;
