@@ -47,14 +47,7 @@ fn frame(c: &mut Criterion) {
         enabled: false,
         ..Default::default()
     });
-    // 10 x 10 x 10 chunks of 8^3 cells around a sphere.
-    let field: Arc<dyn kdcontour::Field> = Arc::new(kdcontour::field::FnField(|p: Vec3| {
-        (p - Vec3::splat(1.0)).length() - 0.8
-    }));
-    let volume = app
-        .world_mut()
-        .spawn(KdVolume::new(field, UVec3::splat(10), 8, 2.0 / 80.0))
-        .id();
+    let volume = spawn_sphere_volume(&mut app);
     let cam = app
         .world_mut()
         .spawn((LodCamera, Transform::from_xyz(1.0, 1.0, -1.0)))
@@ -78,6 +71,17 @@ fn frame(c: &mut Criterion) {
     });
     g.bench_function("camera_still", |b| b.iter(|| app.update()));
     g.finish();
+}
+
+/// The 1,000-chunk volume of [`frame`] and [`frame_colliders`]: 10 x 10 x 10
+/// chunks of 8^3 cells around a sphere.
+fn spawn_sphere_volume(app: &mut App) -> Entity {
+    let field: Arc<dyn kdcontour::Field> = Arc::new(kdcontour::field::FnField(|p: Vec3| {
+        (p - Vec3::splat(1.0)).length() - 0.8
+    }));
+    app.world_mut()
+        .spawn(KdVolume::new(field, UVec3::splat(10), 8, 2.0 / 80.0))
+        .id()
 }
 
 /// Two async compute threads (Bevy gives it a quarter of the cores, one on this
@@ -307,13 +311,7 @@ impl ColliderRun {
         // `App::run` does this; avian sets up its diagnostics resources in `finish`.
         app.finish();
         app.cleanup();
-        let field: Arc<dyn kdcontour::Field> = Arc::new(kdcontour::field::FnField(|p: Vec3| {
-            (p - Vec3::splat(1.0)).length() - 0.8
-        }));
-        let volume = app
-            .world_mut()
-            .spawn(KdVolume::new(field, UVec3::splat(10), 8, 2.0 / 80.0))
-            .id();
+        let volume = spawn_sphere_volume(&mut app);
         app.world_mut()
             .spawn((LodCamera, Transform::from_xyz(1.0, 1.9, 1.0)));
         let anchor = app
