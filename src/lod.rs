@@ -46,11 +46,12 @@ pub(crate) fn update_lod(
     let curve = lod.curve();
     for (entity, vol_tf, mut state) in &mut volumes {
         let local = cam.map(|c| vol_tf.affine().inverse().transform_point3(c));
-        // A chunk whose new threshold would re-extract a chunk held for a level
-        // change keeps its threshold until the change ends, so the change is
-        // never starved by re-extractions. Every chunk is weighed each frame, in any order; only those whose
+        // Every chunk is weighed each frame, in any order; only those whose
         // threshold changes are sorted (into the world's order, so messages
-        // and queued work do not depend on hashing).
+        // and queued work do not depend on hashing). A chunk whose new
+        // threshold would re-extract a chunk held for a level change keeps its
+        // threshold until the change ends, so the change is never starved by
+        // re-extractions.
         let mut changes: Vec<(ChunkKey, f32)> = state
             .slots
             .iter()

@@ -23,7 +23,7 @@
 
 use bevy::tasks::{AsyncComputeTaskPool, Task};
 
-/// The niceness of a worker thread (Unix): 10 of 19, so a core the frame's
+/// The niceness of a worker thread (Linux): 10 of 19, so a core the frame's
 /// threads want is theirs at once while the workers keep every idle core busy.
 pub const WORKER_NICE: i32 = 10;
 
