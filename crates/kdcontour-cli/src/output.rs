@@ -49,9 +49,14 @@ pub fn json_line(
         "max_error": r.max_error,
         "mean_error": r.mean_error,
     });
+    with_geometry(&mut line, r);
+    line.to_string()
+}
+
+/// Adds the geometric checks' keys ([`geometry_json`]) to a JSON object.
+pub fn with_geometry(line: &mut serde_json::Value, r: &MeshReport) {
     let (obj, geo) = (line.as_object_mut().expect("an object"), geometry_json(r));
     obj.extend(geo.as_object().expect("an object").clone());
-    line.to_string()
 }
 
 /// The geometric checks' keys (`null` where a check did not run).

@@ -181,17 +181,18 @@ pub fn run(args: World) -> Result<(), String> {
         .map(|c| world.threshold(c))
         .collect();
     if json {
-        say!(
-            "{}",
-            serde_json::json!({
+        say!("{}", {
+            let mut line = serde_json::json!({
                 "scene": loaded.name, "chunks": chunks.to_array(), "chunk_res": chunk_res,
                 "triangles": r.triangles, "vertices": r.vertices, "seam_triangles": seam_triangles,
                 "watertight": r.watertight, "manifold": r.manifold, "oriented": r.oriented,
                 "euler": r.euler, "max_error": r.max_error, "mean_error": r.mean_error,
                 "build_ms": build_ms, "contour_ms": contour_ms,
                 "retained_bytes": world.retained_bytes(), "thresholds": ts,
-            })
-        );
+            });
+            crate::output::with_geometry(&mut line, &r);
+            line
+        });
     } else {
         say!(
             "world      {} in {}x{}x{} chunks of {chunk_res}^3 cells",

@@ -560,6 +560,10 @@ fn world_levels_weld_closed_and_report_each_level() {
         assert_eq!(v["euler"], 0, "{v}");
         assert_eq!(v["levels"], extra[1], "{v}");
         assert_eq!(v["top_level"], 2, "{v}");
+        // The geometric checks, as `mesh --json` reports them: no crossing on a
+        // conformed face sits on its forced end.
+        assert_eq!(v["zero_area_triangles"], 0, "{v}");
+        assert!(v["flipped_triangles"].is_u64(), "{v}");
         // Every level from 0 to 2 holds chunks, and the levels add up.
         let levels = v["per_level"].as_array().unwrap();
         assert_eq!(levels.len(), 3, "{v}");

@@ -144,7 +144,14 @@ fn random_levels_and_thresholds_weld_closed() {
                 let what = format!("{name} seed {seed} round {round}");
                 let m = check(&w, &what);
                 // Smooth shapes keep their topology at every level.
-                let euler = validate(&m, None).euler;
+                let r = validate(&m, None);
+                let euler = r.euler;
+                if name != "caves" {
+                    // No crossing on a conformed face lands on its forced end, where
+                    // every cell around would put its vertex
+                    // (`hermite::FORCED_CROSSING_T`).
+                    assert_eq!(r.zero_area_triangles, 0, "{what}");
+                }
                 match name {
                     "sphere" => assert_eq!(euler, 2, "{what}"),
                     "torus" => assert_eq!(euler, 0, "{what}"),
@@ -183,6 +190,13 @@ fn camera_levels_inside_and_outside_weld_closed() {
             assert!(counts.len() == 3, "{name} {camera}: {counts:?}");
             let w = level_world(&*scene.field, layout, Settings::default());
             let m = check(&w, &format!("{name} camera {camera}"));
+            // csg_mix keeps one known defect (issue 13): near (0.41, -0.11, 0) the
+            // box's bottom, the sphere cut from it and the capsule's top meet
+            // within a third of a cell, and vertices of two cells clamp to their
+            // shared edge (2 zero-area faces with the camera at the first place).
+            let known = if name == "csg_mix" { 2 } else { 0 };
+            let zero_area = validate(&m, None).zero_area_triangles;
+            assert!(zero_area <= known, "{name} camera {camera}: {zero_area}");
             println!(
                 "{name} camera {camera}: levels {counts:?}, {} triangles, {} level seams",
                 m.triangle_count(),

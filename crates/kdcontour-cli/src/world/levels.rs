@@ -176,9 +176,8 @@ pub fn run(args: &World, spec: &str, thresholds: Thresholds) -> Result<(), Strin
     let retained = world.retained_bytes();
     if args.json {
         let ts: Vec<f32> = keys.iter().map(|k| world.threshold(k)).collect();
-        say!(
-            "{}",
-            serde_json::json!({
+        say!("{}", {
+            let mut line = serde_json::json!({
                 "scene": loaded.name, "chunks": chunks.to_array(), "chunk_res": args.chunk_res,
                 "levels": spec, "top_level": top, "chunk_count": keys.len(),
                 "per_level": stats.iter().map(LevelStats::json).collect::<Vec<_>>(),
@@ -187,8 +186,10 @@ pub fn run(args: &World, spec: &str, thresholds: Thresholds) -> Result<(), Strin
                 "euler": r.euler, "max_error": r.max_error, "mean_error": r.mean_error,
                 "build_ms": build_ms, "contour_ms": contour_ms,
                 "retained_bytes": retained, "thresholds": ts,
-            })
-        );
+            });
+            crate::output::with_geometry(&mut line, &r);
+            line
+        });
         return Ok(());
     }
     say!(

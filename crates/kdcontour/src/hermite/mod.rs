@@ -470,9 +470,23 @@ fn dilate(
         .collect()
 }
 
+/// Where on an edge a crossing goes when the field has no root there: a
+/// fraction of the edge away from the end whose sample was forced to the other
+/// sign (see [`find_root`]). Nearer the end the level worlds' error and flipped
+/// faces drop but slivers grow (camera levels, five scenes: 0.02 gives 5-690
+/// slivers, 0.5 gives 0-364 and 10-25% more error); 0.1 is between.
+pub const FORCED_CROSSING_T: f32 = 0.1;
+
 /// The crossing along `p0 + t * dir`, `t` in `[0, 1]`, between samples `v0` and `v1`
 /// of opposite sign: linear interpolation refined by up to `iterations` steps of the
 /// Illinois false-position method on the field itself.
+///
+/// A chunk conformed to a coarser neighbour has samples forced to the sign the
+/// coarse side gives them (`world::conform`), so the field can have one sign along
+/// an edge whose samples differ. The search then closes on the forced end, and
+/// every cell around that end would put its vertex there, on top of each other
+/// (zero-area triangles). When the search ends at an end whose sample the field
+/// contradicts, the crossing goes [`FORCED_CROSSING_T`] of the edge away from it.
 fn find_root(
     field: &dyn Field,
     grid: &Grid,
@@ -520,6 +534,14 @@ fn find_root(
             break;
         }
         t = (t0 - f0 * (t1 - t0) / (f1 - f0)).clamp(t0, t1);
+    }
+    const AT_END: f32 = 1e-4;
+    if t <= AT_END || t >= 1.0 - AT_END {
+        let (end, sample) = if t <= AT_END { (0.0, v0) } else { (1.0, v1) };
+        let field_there = field.value(grid.to_world(p0 + dir * end));
+        if field_there.is_finite() && (field_there >= 0.0) != (sample >= 0.0) {
+            t = (end - FORCED_CROSSING_T).abs();
+        }
     }
     Ok(t)
 }
