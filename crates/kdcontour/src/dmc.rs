@@ -1,5 +1,5 @@
 //! Uniform Dual Marching Cubes straight from the Hermite data: one vertex per cell
-//! patch, one quad per crossing edge. It shares no code with the k-d tree walk and
+//! patch ([`Hermite::patch_vertex`]), one quad per crossing edge. It shares no code with the k-d tree walk and
 //! serves as the oracle for threshold < 0. Vertices and normals are stored in the
 //! k-d tree's packed form ([`Comp::pack`]), so both give bitwise the same positions.
 
@@ -18,8 +18,7 @@ pub fn uniform_dmc(h: &Hermite) -> IndexedMesh {
         let lo = Vec3::new(c.coord[0] as f32, c.coord[1] as f32, c.coord[2] as f32);
         for k in 0..tables.cell(c.config, c.mask).count as usize {
             let p = c.patch_base as usize + k;
-            let (v, _) = h.patch_qef[p].solve(lo, lo + Vec3::ONE);
-            let packed = Comp::pack(v, h.patch_normal[p], lo, lo + Vec3::ONE, 0);
+            let packed = Comp::pack(h.patch_vertex[p], h.patch_normal[p], lo, lo + Vec3::ONE, 0);
             mesh.positions
                 .push(h.grid.to_world(packed.position(lo, lo + Vec3::ONE)));
             mesh.normals.push(packed.normal());

@@ -16,6 +16,7 @@ use glam::{UVec3, Vec3};
 use rayon::prelude::*;
 
 mod sample;
+mod vertex;
 
 pub use sample::{one_sign, sample, FAR};
 
@@ -44,6 +45,10 @@ pub struct Hermite {
     pub patch_qef: Vec<Qef>,
     /// Sum of the unit normals of each patch's crossings.
     pub patch_normal: Vec<Vec3>,
+    /// Each patch's vertex in its cell (grid units, before [`crate::comp::Comp::pack`] rounds it): the
+    /// QEF's minimiser, or the mass point where that would fold a quad (module
+    /// `vertex`).
+    pub patch_vertex: Vec<Vec3>,
     /// Number of edges with a sign change.
     pub crossings: usize,
     /// Every edge crossing, in a fixed order.
@@ -340,6 +345,7 @@ impl Hermite {
         let mut patch_normal = vec![Vec3::ZERO; patches as usize];
         let mut crossings = 0usize;
         let mut edges = Vec::new();
+        let mut quads = Vec::new();
         let mut own_material = if borders {
             vec![material::UNSET; cells.len()]
         } else {
@@ -364,7 +370,9 @@ impl Hermite {
                     point: x.point,
                     normal: x.normal,
                 });
-                // The (up to) four cells around the edge.
+                // The (up to) four cells around the edge, and the edge's dual quad
+                // when all four are in the grid.
+                let mut quad = [u32::MAX; 4];
                 for su in 0..2u32 {
                     for sv in 0..2u32 {
                         if (su == 0 && g[u] == 0) || (sv == 0 && g[v] == 0) {
@@ -383,6 +391,8 @@ impl Hermite {
                             [edge_index(a, 1 - su, 1 - sv)];
                         debug_assert!(comp != NO_COMP);
                         let p = (cell.patch_base + comp as u32) as usize;
+                        // Counter-clockwise about the axis, as the contouring walks.
+                        quad[[[0, 3], [1, 2]][su as usize][sv as usize]] = p as u32;
                         patch_qef[p].add_plane(x.point, x.normal);
                         patch_normal[p] += x.normal;
                         if let Some(m) = own_material.get_mut(idx as usize) {
@@ -390,8 +400,23 @@ impl Hermite {
                         }
                     }
                 }
+                if !quad.contains(&u32::MAX) {
+                    let mut facing = Vec3::ZERO;
+                    facing[a] = 1.0;
+                    if values[cidx(g[0], g[1], g[2])] >= 0.0 {
+                        quad.reverse();
+                        facing = -facing;
+                    }
+                    quads.push(vertex::DualQuad {
+                        patches: quad,
+                        facing,
+                        normal: x.normal,
+                    });
+                }
             }
         }
+        let patch_vertex = vertex::cell_vertices(&cells, &patch_qef, &patch_normal, &quads);
+        drop(quads);
         let cell_material = dilate(&cells, &own_material, n, |c| lookup[lin(c)]);
         drop(lookup);
 
@@ -417,6 +442,7 @@ impl Hermite {
             cells,
             patch_qef,
             patch_normal,
+            patch_vertex,
             crossings,
             edges,
             cell_material,

@@ -438,7 +438,8 @@ fn cell_leaf(
     for k in 0..cc.count as usize {
         let p = c.patch_base as usize + k;
         let q = ctx.h.patch_qef[p];
-        let (vertex, e) = q.solve(lo, hi);
+        let vertex = ctx.h.patch_vertex[p];
+        let e = q.error_at(vertex.as_dvec3());
         error = error.max(e);
         let normal = ctx.h.patch_normal[p];
         arena.comps.push(Comp::pack(vertex, normal, lo, hi, 0));

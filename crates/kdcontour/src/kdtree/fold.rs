@@ -24,8 +24,8 @@
 //! and the cut passes through its children instead. Refusals change other edges'
 //! polygons, so the pass repeats until none is refused. Seen along its edge, a
 //! polygon of vertices inside their boxes winds once around the edge, so the cells
-//! alone never need refusing for this reason; what remains at the finest level is
-//! what uniform Dual Marching Cubes does.
+//! alone never need refusing for this reason; at the finest level the cells'
+//! vertices are already placed so their quads do not fold (`hermite::vertex`).
 //!
 //! A chunk's seams are contoured against its neighbours' trees, whose cuts the
 //! build cannot know: on an edge with cells outside the tree (in the chunk's halo)
@@ -242,12 +242,11 @@ impl<'a> Halo<'a> {
     fn rung(&self, (i, local): (usize, u8), q: usize) -> Rung {
         let cell = self.h.cells[i];
         let p = cell.patch_base as usize + local as usize;
-        let lo = Vec3::from_array(cell.coord.map(|v| v as f32));
         Rung {
             node: NONE - q as u32,
             local,
             error: f32::NEG_INFINITY,
-            pos: self.h.patch_qef[p].solve(lo, lo + Vec3::ONE).0,
+            pos: self.h.patch_vertex[p],
             normal: self.h.patch_normal[p].normalize_or_zero(),
         }
     }
