@@ -498,7 +498,9 @@ fn dilate(
 
 /// Where on an edge a crossing goes when the field has no root there: a
 /// fraction of the edge away from the end whose sample was forced to the other
-/// sign (see [`find_root`]). Nearer the end the level worlds' error and flipped
+/// sign. A chunk conformed to a coarser neighbour has such samples (the level
+/// rules in [`crate::world::levels`]); a root search from one closes on it, and
+/// every cell around would put its vertex there (zero-area faces). Nearer the end the level worlds' error and flipped
 /// faces drop but slivers grow (camera levels, five scenes: 0.02 gives 5-690
 /// slivers, 0.5 gives 0-364 and 10-25% more error); 0.1 is between.
 pub const FORCED_CROSSING_T: f32 = 0.1;
