@@ -114,6 +114,9 @@ struct Crossing {
     normal: Vec3,
     /// The dominant material there ([`material::UNSET`] when not tracked).
     material: u16,
+    /// The field has no root on the edge: a sample was forced to the other sign
+    /// (see [`FORCED_CROSSING_T`]).
+    forced: bool,
 }
 
 impl Hermite {
@@ -284,6 +287,7 @@ impl Hermite {
                                 point,
                                 normal,
                                 material: material::UNSET,
+                                forced: false,
                             });
                             continue;
                         }
@@ -312,7 +316,7 @@ impl Hermite {
                             }
                         }
                         let dir = Vec3::AXES[a];
-                        let t = find_root(field, grid, p0, dir, v0, v1, iterations)?;
+                        let (t, forced) = find_root(field, grid, p0, dir, v0, v1, iterations)?;
                         let point = p0 + dir * t;
                         let wp = grid.to_world(point);
                         let grad = field.gradient(wp);
@@ -334,6 +338,7 @@ impl Hermite {
                             point,
                             normal,
                             material,
+                            forced,
                         });
                     }
                 }
@@ -400,7 +405,10 @@ impl Hermite {
                         }
                     }
                 }
-                if !quad.contains(&u32::MAX) {
+                // A forced crossing's quad is not the field's surface (a halo
+                // forced inside, a conformed face): its cells' vertices are not
+                // judged by it.
+                if !quad.contains(&u32::MAX) && !x.forced {
                     let mut facing = Vec3::ZERO;
                     facing[a] = 1.0;
                     if values[cidx(g[0], g[1], g[2])] >= 0.0 {
@@ -514,7 +522,8 @@ pub const FORCED_CROSSING_T: f32 = 0.1;
 /// an edge whose samples differ. The search then closes on the forced end, and
 /// every cell around that end would put its vertex there, on top of each other
 /// (zero-area triangles). When the search ends at an end whose sample the field
-/// contradicts, the crossing goes [`FORCED_CROSSING_T`] of the edge away from it.
+/// contradicts, the crossing goes [`FORCED_CROSSING_T`] of the edge away from it,
+/// and the second value says so.
 fn find_root(
     field: &dyn Field,
     grid: &Grid,
@@ -523,13 +532,16 @@ fn find_root(
     v0: f32,
     v1: f32,
     iterations: u32,
-) -> Result<f32> {
+) -> Result<(f32, bool)> {
     let (mut t0, mut f0, mut t1, mut f1) = (0f32, v0, 1f32, v1);
     let mut t = (f0 / (f0 - f1)).clamp(0.0, 1.0);
     let mut side = 0i8;
     // Converged when the field is within 1e-5 cells of zero (distance units for
     // SDFs) or the bracket is 1e-5 cells wide.
     let tol = 1e-5 * grid.cell_size;
+    // Whether an evaluation had end 0's sign or end 1's, and whether one was
+    // within `tol` of zero (a root for sure).
+    let (mut seen0, mut seen1, mut on_root) = (false, false, false);
     for _ in 0..iterations {
         let wp = grid.to_world(p0 + dir * t);
         let ft = field.value(wp);
@@ -540,8 +552,17 @@ fn find_root(
                 cause: field.explain_non_finite(wp),
             });
         }
-        if ft.abs() <= tol || (t1 - t0) < 1e-5 {
+        if ft.abs() <= tol {
+            on_root = true;
             break;
+        }
+        if (t1 - t0) < 1e-5 {
+            break;
+        }
+        if (ft >= 0.0) == (v0 >= 0.0) {
+            seen0 = true;
+        } else {
+            seen1 = true;
         }
         if (ft >= 0.0) == (f0 >= 0.0) {
             t0 = t;
@@ -563,13 +584,14 @@ fn find_root(
         }
         t = (t0 - f0 * (t1 - t0) / (f1 - f0)).clamp(t0, t1);
     }
-    const AT_END: f32 = 1e-4;
-    if t <= AT_END || t >= 1.0 - AT_END {
-        let (end, sample) = if t <= AT_END { (0.0, v0) } else { (1.0, v1) };
+    // Every evaluation had one end's sign: the search closed on the other end,
+    // whose sample the field may contradict.
+    if !on_root && seen0 != seen1 {
+        let (end, sample) = if seen1 { (0.0, v0) } else { (1.0, v1) };
         let field_there = field.value(grid.to_world(p0 + dir * end));
         if field_there.is_finite() && (field_there >= 0.0) != (sample >= 0.0) {
-            t = (end - FORCED_CROSSING_T).abs();
+            return Ok(((end - FORCED_CROSSING_T).abs(), true));
         }
     }
-    Ok(t)
+    Ok((t, false))
 }

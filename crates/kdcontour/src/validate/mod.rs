@@ -24,7 +24,8 @@
 //! - [`Distance::surface_to_mesh_max`] is how much surface the mesh misses: the
 //!   largest distance from a surface point (every crossing of the edges of the
 //!   sampling grid, of that grid shifted by half a cell, and of a lattice three
-//!   times finer inside every cell with a sign change, found by false position on
+//!   times finer inside every cell with a sign change or too near the surface for
+//!   the field's Lipschitz bound to prove it empty, found by false position on
 //!   the field) to the nearest triangle, exactly.
 //!   [`Distance::lost_surface`] is the share of the sampling grid's own crossings
 //!   (the surface the mesher saw) farther than [`LOST_CELLS`] cells; the shifted
@@ -44,7 +45,7 @@ mod faces;
 mod folds;
 mod materials;
 mod spatial;
-mod tritri;
+pub(crate) mod tritri;
 
 pub use distance::{DISTANCE_CAP_CELLS, LOST_CELLS};
 pub use faces::{SLIVER_DEGREES, ZERO_AREA_CELLS2};
