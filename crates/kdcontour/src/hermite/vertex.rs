@@ -118,7 +118,10 @@ pub(super) fn cell_vertices(
         let around = around.get_or_insert_with(|| Around::new(quads, qef.len(), cells));
         let crossing: Vec<bool> = moving
             .par_iter()
-            .map(|&p| around.crossings(p, quads, &rounded) > around.crossings(p, quads, &prev))
+            .map(|&p| {
+                let after = around.crossings(p, quads, &rounded);
+                after > 0 && after > around.crossings(p, quads, &prev)
+            })
             .collect();
         for (&p, cross) in moving.iter().zip(crossing) {
             let p = p as usize;
