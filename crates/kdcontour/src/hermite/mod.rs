@@ -45,9 +45,9 @@ pub struct Hermite {
     pub patch_qef: Vec<Qef>,
     /// Sum of the unit normals of each patch's crossings.
     pub patch_normal: Vec<Vec3>,
-    /// Each patch's vertex in its cell (grid units, before [`crate::comp::Comp::pack`] rounds it): the
-    /// QEF's minimiser, or the mass point where that would fold a quad (module
-    /// `vertex`).
+    /// Each patch's vertex in its cell (grid units, before
+    /// [`crate::comp::Comp::pack`] rounds it): the QEF's minimiser, moved toward
+    /// the mass point where that would fold a quad (module `vertex`).
     pub patch_vertex: Vec<Vec3>,
     /// Number of edges with a sign change.
     pub crossings: usize,
@@ -508,9 +508,10 @@ fn dilate(
 /// fraction of the edge away from the end whose sample was forced to the other
 /// sign. A chunk conformed to a coarser neighbour has such samples (the level
 /// rules in [`crate::world::levels`]); a root search from one closes on it, and
-/// every cell around would put its vertex there (zero-area faces). Nearer the end the level worlds' error and flipped
-/// faces drop but slivers grow (camera levels, five scenes: 0.02 gives 5-690
-/// slivers, 0.5 gives 0-364 and 10-25% more error); 0.1 is between.
+/// every cell around would put its vertex there (zero-area faces). Nearer the
+/// end the level worlds' error and flipped faces drop but slivers grow (camera
+/// levels, five scenes: 0.02 gives 5-690 slivers, 0.5 gives 0-364 and 10-25%
+/// more error); 0.1 is between.
 pub const FORCED_CROSSING_T: f32 = 0.1;
 
 /// The crossing along `p0 + t * dir`, `t` in `[0, 1]`, between samples `v0` and `v1`

@@ -64,23 +64,23 @@ pub(super) fn cell_vertices(
     quads: &[DualQuad],
 ) -> Vec<Vec3> {
     let tables = CellTables::get();
-    // The low corner of each patch's cell.
-    let mut lo = vec![Vec3::ZERO; qef.len()];
-    for c in cells {
-        let at = Vec3::from_array(c.coord.map(|v| v as f32));
+    // Each patch's cell.
+    let mut cell_of = vec![0u32; qef.len()];
+    for (i, c) in cells.iter().enumerate() {
         let count = tables.cell(c.config, c.mask).count as usize;
         let base = c.patch_base as usize;
-        lo[base..base + count].fill(at);
+        cell_of[base..base + count].fill(i as u32);
     }
+    let lo = |p: usize| Vec3::from_array(cells[cell_of[p] as usize].coord.map(|v| v as f32));
     // Where the tree will store a vertex: the quads are tested as they will be
     // meshed.
     let stored = |v: Vec3, p: usize| {
-        let (l, h) = (lo[p], lo[p] + Vec3::ONE);
+        let (l, h) = (lo(p), lo(p) + Vec3::ONE);
         Comp::pack(v, normal[p], l, h, 0).position(l, h)
     };
     let mut vertex: Vec<Vec3> = (0..qef.len())
         .into_par_iter()
-        .map(|p| qef[p].solve(lo[p], lo[p] + Vec3::ONE).0)
+        .map(|p| qef[p].solve(lo(p), lo(p) + Vec3::ONE).0)
         .collect();
     let mut rounded: Vec<Vec3> = vertex
         .par_iter()
@@ -115,7 +115,7 @@ pub(super) fn cell_vertices(
             step[p] += 1;
             rounded[p] = stored(place(p, step[p]), p);
         }
-        let around = around.get_or_insert_with(|| Around::new(quads, qef.len(), cells));
+        let around = around.get_or_insert_with(|| Around::new(quads, &cell_of, cells));
         let crossing: Vec<bool> = moving
             .par_iter()
             .map(|&p| {
@@ -162,16 +162,9 @@ struct Around {
 }
 
 impl Around {
-    fn new(quads: &[DualQuad], patches: usize, cells: &[ActiveCell]) -> Self {
-        let tables = CellTables::get();
-        let mut cell = vec![0u32; patches];
-        let mut cell_start = Vec::with_capacity(cells.len() + 1);
-        for (i, c) in cells.iter().enumerate() {
-            cell_start.push(c.patch_base);
-            let count = tables.cell(c.config, c.mask).count as usize;
-            let base = c.patch_base as usize;
-            cell[base..base + count].fill(i as u32);
-        }
+    fn new(quads: &[DualQuad], cell_of: &[u32], cells: &[ActiveCell]) -> Self {
+        let patches = cell_of.len();
+        let mut cell_start: Vec<u32> = cells.iter().map(|c| c.patch_base).collect();
         cell_start.push(patches as u32);
         let mut start = vec![0u32; patches + 1];
         for q in quads {
@@ -193,7 +186,7 @@ impl Around {
         Around {
             start,
             quads: list,
-            cell,
+            cell: cell_of.to_vec(),
             cell_start,
         }
     }
