@@ -1,6 +1,6 @@
 //! Uniform Dual Marching Cubes straight from the Hermite data: one vertex per cell
-//! patch ([`Hermite::patch_vertex`]), one quad per crossing edge. It shares no code with the k-d tree walk and
-//! serves as the oracle for threshold < 0. Vertices and normals are stored in the
+//! patch ([`Hermite::patch_vertex`]), one quad per crossing edge. It shares no
+//! code with the k-d tree walk and serves as the oracle for threshold < 0. Vertices and normals are stored in the
 //! k-d tree's packed form ([`Comp::pack`]), so both give bitwise the same positions.
 
 use crate::cell::{edge_index, CellTables};

@@ -291,17 +291,18 @@ const BLOCK: u32 = 8;
 /// Each cell that may hold surface ([`may_hold_surface`]: a sign change among its
 /// corners, or too near the surface for a Lipschitz bound to prove it empty) is
 /// sampled again on a lattice this many times finer, whose crossings count in
-/// the surface-to-mesh maximum. The cells with no sign change added the fins
-/// thinner than a cell that the grid misses (anisotropic at res 24: 5.4 cells
-/// against 7.2 by brute force before, 7.2 with them) and made the full checks of
-/// `disk_pole` at res 128 take 3.1 s instead of 2.35 s. 4 lowered the maximum on
-/// `box` and csg_mix (its lattice misses the points the one of 3 hits).
-/// The grid's own crossings are a cell apart and missed the places farthest from
-/// the mesh (a box's edges, which a coarse mesh cuts): at res 24 the maximum was
-/// 0.135 cells on `box` against 0.212 by brute force, and 0.128 against 0.154 on
-/// a smooth volume (`tests/distance_agrees.rs`); with 3 they are 0.205 and 0.144.
-/// 2 left the torus at threshold 0.1 at 0.114 against 0.142. The cost: the full
-/// checks of `disk_pole` at res 128 took 1.3 s before and about 4 s with it.
+/// the surface-to-mesh maximum. The grid's own crossings are a cell apart and
+/// missed the places farthest from the mesh (a box's edges, which a coarse mesh
+/// cuts): at res 24 the maximum was 0.135 cells on `box` against 0.212 by brute
+/// force, and 0.128 against 0.154 on a smooth volume
+/// (`tests/distance_agrees.rs`); with 3 they are 0.205 and 0.144. 2 left the
+/// torus at threshold 0.1 at 0.114 against 0.142; 4 lowered the maximum on `box`
+/// and csg_mix (its lattice misses the points the one of 3 hits).
+///
+/// Refining the cells with no sign change too added the fins thinner than a cell
+/// that the grid misses (anisotropic at res 24: 5.4 cells against 7.2 by brute
+/// force before, 7.2 with them). The whole `mesh` command with full checks of
+/// `disk_pole` at res 128 took 2.35 s before that and 3.1 s after.
 const REFINE: u32 = 3;
 
 /// Whether a cell with corner values `v` (bit `i` of the index: +1 along axis
