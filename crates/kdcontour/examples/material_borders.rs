@@ -6,13 +6,21 @@
 //! takes with and without materials at all (the terrain's material evaluated at
 //! every crossing and component).
 //!
+//! Then what drawing borders along their creases does
+//! ([`kdcontour::material::split_borders`], issue 13's teeth): on the
+//! csg_editor's opening scene at its resolution, `csg_mix`, `caves` and the
+//! demo terrain chunk, the faces of one pure material with a corner of another (drawn as a
+//! sawtooth) before and after, the vertices added, and the split's time against
+//! the extraction's (`KdTree::mesh`).
+//!
 //! Run with `cargo run --release -p kdcontour --example material_borders`.
-//! Times are the best of five builds on one thread.
+//! Times are the best of five runs on one thread.
 
 use glam::Vec3;
+use kdcontour::field::layers;
 use kdcontour::field::terrain::{Density, DensityParams};
-use kdcontour::material::MaterialBlend;
-use kdcontour::{scenes, Field, Grid, KdTree, Settings};
+use kdcontour::material::{split_borders, MaterialBlend, PURE};
+use kdcontour::{scenes, Field, Grid, IndexedMesh, KdTree, Settings};
 use std::time::Instant;
 
 /// A plane split at x = 0.113 into materials 1 and 0.
@@ -49,6 +57,57 @@ fn measure(field: &dyn Field, grid: &Grid, threshold: f32, borders: Option<bool>
         tris = mesh.triangle_count();
     }
     (tris, best)
+}
+
+/// Faces whose centroid holds one pure material and that have a corner of
+/// another: each is drawn with a tooth of the corner's colour.
+fn teeth(mesh: &IndexedMesh, field: &dyn Field) -> usize {
+    mesh.indices
+        .chunks(3)
+        .filter(|t| {
+            let c = t.iter().map(|&v| mesh.positions[v as usize]).sum::<Vec3>() / 3.0;
+            let m = field.material(c);
+            m.weights[0] >= PURE
+                && t.iter()
+                    .any(|&v| mesh.materials[v as usize].dominant() != m.dominant())
+        })
+        .count()
+}
+
+/// One row of the split table: `field` on `grid` at `threshold`.
+fn split_row(name: &str, field: &dyn Field, grid: &Grid, threshold: f32, borders: bool) {
+    let settings = Settings {
+        threads: 1,
+        material_borders: borders,
+        ..Default::default()
+    };
+    let tree = KdTree::build(field, grid, &settings).expect("builds");
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("a pool");
+    let (mut extract_ms, mut split_ms) = (f64::INFINITY, f64::INFINITY);
+    let (mut before, mut split, mut report) = (IndexedMesh::default(), None, None);
+    for _ in 0..5 {
+        one.install(|| {
+            let t = Instant::now();
+            let mesh = tree.mesh(threshold);
+            extract_ms = extract_ms.min(t.elapsed().as_secs_f64() * 1e3);
+            let mut drawn = mesh.clone();
+            let t = Instant::now();
+            let r = split_borders(&mut drawn, field, grid.cell_size);
+            split_ms = split_ms.min(t.elapsed().as_secs_f64() * 1e3);
+            (before, split, report) = (mesh, Some(drawn), Some(r));
+        });
+    }
+    let (split, report) = (split.expect("ran"), report.expect("ran"));
+    println!(
+        "| {name} | {threshold} | {} | {} | {} | {} | {split_ms:.2} | {extract_ms:.2} |",
+        before.triangle_count(),
+        teeth(&before, field),
+        teeth(&split, field),
+        report.vertices_added,
+    );
 }
 
 fn main() {
@@ -88,4 +147,45 @@ fn main() {
     println!(
         "demo terrain chunk: {with:.2} ms with materials (merged), {without:.2} ms without materials"
     );
+
+    println!();
+    println!("| field | threshold | triangles | teeth before | teeth after | vertices added | split ms | extraction ms |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|");
+    let starter = layers::scene_node(&layers::starter())
+        .compile()
+        .expect("the editor's scene compiles");
+    let editor = Grid::cube(1.5, 96);
+    split_row(
+        "csg_editor's opening scene, 96³",
+        &starter,
+        &editor,
+        0.005,
+        true,
+    );
+    for res in [64, 128] {
+        for threshold in [-1.0, 0.01, 1.0] {
+            let name = format!("csg_mix, {res}³");
+            split_row(&name, &*csg.field, &Grid::cube(1.0, res), threshold, true);
+        }
+    }
+    let caves = scenes::scene("caves").expect("built in");
+    for threshold in [0.01, 1.0] {
+        split_row(
+            "caves, 64³",
+            &*caves.field,
+            &Grid::cube(1.0, 64),
+            threshold,
+            true,
+        );
+    }
+    for threshold in [0.01, 1.0] {
+        // As the terrain demo builds it: borders merged, weights blend.
+        split_row(
+            "demo terrain chunk, 32³",
+            &terrain,
+            &chunk,
+            threshold,
+            false,
+        );
+    }
 }

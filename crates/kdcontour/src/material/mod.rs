@@ -12,6 +12,10 @@
 //! `material` node ([`crate::CsgNode::Material`]); brushes carry one too
 //! ([`crate::edit::Brush::material`]).
 
+mod borders;
+
+pub use borders::{split_borders, BorderSplit};
+
 use crate::field::Field;
 use crate::kdtree::KdTree;
 use crate::mesh::IndexedMesh;
