@@ -104,6 +104,12 @@ impl VolumeState {
             Work::Extract => {
                 let threshold = self.world().threshold(&c);
                 let snapshot = self.world().snapshot(&c);
+                let field = self.field().clone();
+                // Creases are looked for at the finest level's scale at every
+                // level: a far chunk's coarse faces bend at their own scale
+                // everywhere, and splitting there would draw whole faces in
+                // one material (angular patches on distant hills).
+                let cell = self.world().cell_size();
                 let slot = self.slots.get_mut(&c).expect("listed");
                 slot.need_extract = false;
                 let Some(snapshot) = snapshot else {
@@ -126,11 +132,17 @@ impl VolumeState {
                     // Vertex materials come from the tree, when the volume's
                     // world carries them (a terrain material).
                     snapshot.extract(&mut mesh);
+                    // The collider takes the welded mesh; the drawn one has its
+                    // vertices split along hard material borders, so a border
+                    // is drawn along the crease, not as a sawtooth across it.
+                    #[cfg(feature = "avian")]
+                    let collider = layers.and_then(|l| crate::colliders::build(&mesh, l));
+                    kdcontour::material::split_borders(&mut mesh, &field, cell);
                     #[allow(unused_mut)]
                     let mut ready = ReadyMesh::new(threshold, &mesh);
                     #[cfg(feature = "avian")]
                     {
-                        ready.collider = layers.and_then(|l| crate::colliders::build(&mesh, l));
+                        ready.collider = collider;
                     }
                     ExtractOut {
                         stamp,

@@ -1,7 +1,9 @@
 //! Materials in the plugin (issue 16), headless: a volume drawn with the
 //! terrain material gets per-layer weights on every chunk vertex, equal to the
-//! field's materials there and summing to one; a volume with a plain material
-//! gets none (they would tint it).
+//! field's materials there (or, for a vertex split along a hard border, those of
+//! the faces on its side) and summing to one, and the border is drawn along
+//! edges, not as a sawtooth; a volume with a plain material gets none (they would
+//! tint it).
 
 mod common;
 
@@ -14,16 +16,31 @@ use kdcontour::material::MaterialBlend;
 use kdcontour::Field;
 use std::sync::Arc;
 
+/// Where the pit is: a hemisphere of radius 1.5 sunk into the ground.
+const PIT: Vec3 = Vec3::new(12.0, 3.1, 12.0);
+
 /// Ground at `y = 3.1`: grass (0) for `x < 7`, rock (1) for `x > 9`, blended
-/// between, and snow (3) with a little sand (4) on a patch around x = z = 12.
+/// between, and a round pit at x = z = 12 lined with snow (3) and a little
+/// sand (4): its rim is a crease and a hard border.
 struct Ground;
+
+impl Ground {
+    /// Whether the pit's wall, not the ground, is the surface nearest `p`.
+    fn in_pit(p: Vec3) -> bool {
+        1.5 - p.distance(PIT) > p.y - 3.1
+    }
+}
 
 impl Field for Ground {
     fn value(&self, p: Vec3) -> f32 {
-        p.y - 3.1
+        (p.y - 3.1).max(1.5 - p.distance(PIT))
     }
-    fn gradient(&self, _p: Vec3) -> Vec3 {
-        Vec3::Y
+    fn gradient(&self, p: Vec3) -> Vec3 {
+        if Ground::in_pit(p) {
+            (PIT - p).normalize_or(Vec3::Y)
+        } else {
+            Vec3::Y
+        }
     }
     fn lipschitz(&self) -> Option<f32> {
         Some(1.0)
@@ -32,17 +49,11 @@ impl Field for Ground {
         true
     }
     fn material(&self, p: Vec3) -> MaterialBlend {
-        if p.xz().distance(Vec2::splat(12.0)) < 2.0 {
-            return MaterialBlend {
-                ids: [3, 4, 3, 3],
-                weights: [0.75, 0.25, 0.0, 0.0],
-            };
+        if Ground::in_pit(p) {
+            return MaterialBlend::weighted(&[(3, 0.75), (4, 0.25)]);
         }
         let t = ((p.x - 7.0) / 2.0).clamp(0.0, 1.0);
-        MaterialBlend {
-            ids: [0, 1, 0, 0],
-            weights: [1.0 - t, t, 0.0, 0.0],
-        }
+        MaterialBlend::weighted(&[(0, 1.0 - t), (1, t)])
     }
 }
 
@@ -60,11 +71,17 @@ fn ground(material: impl FnOnce(KdVolume) -> KdVolume) -> (App, Entity) {
     (app, volume)
 }
 
-/// Every shown chunk mesh: positions and, if present, the two weight attributes.
-#[allow(clippy::type_complexity)]
-fn shown_meshes(
-    app: &mut App,
-) -> Vec<(Vec<[f32; 3]>, Option<Vec<[f32; 4]>>, Option<Vec<[f32; 2]>>)> {
+/// A shown chunk mesh: positions, indices and, if present, the two weight
+/// attributes.
+type Shown = (
+    Vec<[f32; 3]>,
+    Vec<u32>,
+    Option<Vec<[f32; 4]>>,
+    Option<Vec<[f32; 2]>>,
+);
+
+/// Every shown chunk mesh.
+fn shown_meshes(app: &mut App) -> Vec<Shown> {
     let mut q = app.world_mut().query::<(&KdChunk, &Mesh3d)>();
     let meshes = app.world().resource::<Assets<Mesh>>();
     q.iter(app.world())
@@ -85,7 +102,10 @@ fn shown_meshes(
                 None => None,
                 other => panic!("uv_0 attribute {other:?}"),
             };
-            (p.clone(), lo, hi)
+            let Some(bevy::mesh::Indices::U32(indices)) = mesh.indices() else {
+                panic!("no u32 indices")
+            };
+            (p.clone(), indices.clone(), lo, hi)
         })
         .collect()
 }
@@ -96,25 +116,89 @@ fn terrain_material_chunks_carry_the_fields_materials_as_layer_weights() {
     let chunks = shown_meshes(&mut app);
     assert!(chunks.len() >= 4, "{} chunks shown", chunks.len());
     let mut seen = [false; 6];
-    for (positions, lo, hi) in chunks {
+    let (mut split, mut border_faces) = (0, 0);
+    for (positions, indices, lo, hi) in chunks {
         let (lo, hi) = (
             lo.expect("layer weights 0-3"),
             hi.expect("layer weights 4-5"),
         );
         assert_eq!((lo.len(), hi.len()), (positions.len(), positions.len()));
-        for ((p, l), h) in positions.iter().zip(&lo).zip(&hi) {
+        let layers = |m: MaterialBlend| {
+            let (l, h) = layer_weights(&[m]);
+            (l[0], h[0])
+        };
+        let centroid = |t: &[u32]| {
+            t.iter()
+                .map(|&v| Vec3::from_array(positions[v as usize]))
+                .sum::<Vec3>()
+                / 3.0
+        };
+        for (v, ((p, l), h)) in positions.iter().zip(&lo).zip(&hi).enumerate() {
             let w: Vec<f32> = l.iter().chain(h).copied().collect();
             let sum: f32 = w.iter().sum();
             assert!((sum - 1.0).abs() < 1e-5, "weights {w:?} at {p:?}");
-            // The field's material at the vertex, as layers.
-            let (el, eh) = layer_weights(&[Ground.material(Vec3::from_array(*p))]);
-            assert_eq!((*l, *h), (el[0], eh[0]), "at {p:?}");
+            // The field's material at the vertex, as layers; or, for a copy
+            // split along the pit's rim, the material of the faces on its
+            // side (all alike here).
+            if (*l, *h) != layers(Ground.material(Vec3::from_array(*p))) {
+                split += 1;
+                let sides: Vec<_> = indices
+                    .chunks(3)
+                    .filter(|t| t.contains(&(v as u32)))
+                    .map(|t| layers(Ground.material(centroid(t))))
+                    .collect();
+                let close = |(a, b): ([f32; 4], [f32; 2])| {
+                    a.iter()
+                        .chain(&b)
+                        .zip(l.iter().chain(h))
+                        .all(|(x, y)| (x - y).abs() < 1e-5)
+                };
+                assert!(
+                    sides.iter().all(|s| close(*s)),
+                    "vertex at {p:?}: {:?}, its faces {sides:?}",
+                    (l, h)
+                );
+            }
             for (k, x) in w.iter().enumerate() {
                 seen[k] |= *x > 0.5;
             }
         }
+        // No sawtooth round the pit's rim: a face of one pure material has no
+        // vertex of another.
+        let dominant = |v: u32| {
+            let w: Vec<f32> = lo[v as usize]
+                .iter()
+                .chain(&hi[v as usize])
+                .copied()
+                .collect();
+            (0..6).max_by(|&a, &b| w[a].total_cmp(&w[b])).unwrap()
+        };
+        for t in indices.chunks(3) {
+            let c = centroid(t);
+            if c.xz().distance(PIT.xz()) > 2.5 {
+                continue;
+            }
+            let m = Ground.material(c);
+            if m.weights[0] < kdcontour::material::PURE {
+                continue;
+            }
+            let (l, h) = layers(m);
+            let want = (0..6)
+                .max_by(|&a, &b| {
+                    let x = |k: usize| if k < 4 { l[k] } else { h[k - 4] };
+                    x(a).total_cmp(&x(b))
+                })
+                .unwrap();
+            let corners: Vec<usize> = t.iter().map(|&v| dominant(v)).collect();
+            border_faces += usize::from(corners.iter().any(|&c| c != want));
+        }
     }
-    assert!(seen[0] && seen[1], "grass and rock both show: {seen:?}");
+    assert_eq!(border_faces, 0, "faces drawn across the pit's rim");
+    assert!(split > 0, "no vertex was split along the pit's rim");
+    assert!(
+        seen[0] && seen[1] && seen[3],
+        "grass, rock and snow all show: {seen:?}"
+    );
 }
 
 #[test]
@@ -122,7 +206,7 @@ fn a_plain_material_volume_carries_no_layer_weights() {
     let (mut app, _) = ground(|v| v);
     let chunks = shown_meshes(&mut app);
     assert!(chunks.len() >= 4);
-    for (_, lo, hi) in chunks {
+    for (_, _, lo, hi) in chunks {
         assert!(lo.is_none() && hi.is_none(), "a plain material got weights");
     }
 }
@@ -166,23 +250,29 @@ fn a_paint_stroke_rebuilds_only_the_chunks_it_reaches_and_shows_its_material() {
     }
     // The painted spot shows snow on layer 3; the rest of the ground keeps its
     // grass (layer 0) and sums to one.
-    let (mut painted, mut grass) = (0, 0);
-    for (positions, lo, hi) in shown_meshes(&mut app) {
+    // A vertex on the stroke's edge is split: a snow copy for the painted
+    // faces and a grass one for the rest. Every place within 0.4 of the
+    // stroke's centre has a snow vertex, every place beyond 0.6 (on the grass
+    // side of the ground) a grass one.
+    let mut at: Vec<([f32; 3], [f32; 4])> = Vec::new();
+    for (positions, _, lo, hi) in shown_meshes(&mut app) {
         let (lo, hi) = (lo.expect("layer weights"), hi.expect("layer weights"));
         for ((p, l), h) in positions.iter().zip(&lo).zip(&hi) {
             let sum: f32 = l.iter().chain(h).sum();
             assert!((sum - 1.0).abs() < 1e-5, "weights {l:?} {h:?} at {p:?}");
-            let d = Vec3::from_array(*p).distance(centre);
-            if d < 0.4 {
-                assert!(l[3] > 0.99, "unpainted {l:?} at {p:?}, {d} from the stroke");
-                painted += 1;
-            } else if d > 0.6
-                && p[0] < 6.5
-                && Vec2::new(p[0], p[2]).distance(Vec2::splat(12.0)) > 2.0
-            {
-                assert!(l[0] > 0.99, "grass lost at {p:?}: {l:?}");
-                grass += 1;
-            }
+            at.push((*p, *l));
+        }
+    }
+    let has = |p: [f32; 3], layer: usize| at.iter().any(|(q, l)| *q == p && l[layer] > 0.99);
+    let (mut painted, mut grass) = (0, 0);
+    for &(p, l) in &at {
+        let d = Vec3::from_array(p).distance(centre);
+        if d < 0.4 {
+            assert!(has(p, 3), "unpainted {l:?} at {p:?}, {d} from the stroke");
+            painted += usize::from(l[3] > 0.99);
+        } else if d > 0.6 && p[0] < 6.5 && Vec2::new(p[0], p[2]).distance(Vec2::splat(12.0)) > 2.0 {
+            assert!(has(p, 0), "grass lost at {p:?}: {l:?}");
+            grass += usize::from(l[0] > 0.99);
         }
     }
     assert!(
