@@ -85,6 +85,11 @@
 //!   coarser chunk can still fold. [`validate_with`] counts all of these (see
 //!   [`validate`](mod@validate) for what each figure means); the tests record
 //!   today's counts per scene (`tests/geometry.rs`, issue 13).
+//! - A vertex holds one material blend, so a border between materials is drawn
+//!   along mesh edges only where [`material::split_borders`] splits the vertices
+//!   on it: on creases (a CSG cut, a cave mouth; the plugin does this for every
+//!   chunk it draws). A border across smooth surface fades over the faces that
+//!   cross it.
 //! - Features thinner than a cell are not resolved (the grid decides topology).
 //! - A surface that leaves the grid is open there by default
 //!   ([`Boundary::Open`]); [`Boundary::Capped`] closes it along the grid's faces.

@@ -10,11 +10,11 @@
 //! "teeth" on the csg_editor cup's rim).
 //!
 //! [`split_borders`] reads the field's material at the centroids of the faces
-//! whose corners hold two pure materials and, where the surface bends at the
-//! vertex between them, gives each side its own copy of that vertex, with that
-//! side's material and normal. The border then runs along the crease, shaded
-//! sharp. A border across smooth surface (a snow line, a painted patch) has no
-//! edge to follow and keeps its fade. Positions do not change, so welding the
+//! whose corners hold two pure materials and, where the surface bends at
+//! such a vertex, gives each side its own copy of it, with that side's material
+//! and normal. The border then runs along the crease, shaded sharp. A border
+//! across smooth surface (a snow line, a painted patch) has no edge to follow
+//! and keeps its fade. Positions do not change, so welding the
 //! copies back gives the mesh it was made from; only drawn meshes are split (the
 //! core's checks, colliders and exported meshes stay welded).
 
@@ -44,17 +44,17 @@ pub struct BorderSplit {
 ///
 /// Faces whose corners hold two pure materials (dominant weight at least
 /// [`PURE`]) read `field`'s material at their centroid; the other faces round
-/// those corners take the material their corners agree on. A face whose
-/// material is pure and that has a corner of another pure material gets a copy
-/// of that vertex with its own material, if the vertex sits on a crease between
-/// the two: the mesh bends there by at least half of [`CREASE_DEGREES`], each
-/// side's material holds [`SIDE_CELLS`] cells from the vertex toward that side's
-/// faces, and the field's normals at those two points differ by more than
-/// [`CREASE_DEGREES`] (or no face of the vertex's own material touches it). One
-/// copy per vertex and material, whose blend is the mean of the faces that use
-/// it. Blends, and borders across smooth surface, are left to the vertices'
-/// weights, so they still fade. Every vertex that is split takes, on each side,
-/// the field's normal just on that side (the crease is shaded sharp).
+/// those corners count as the material their corners agree on. A read face
+/// whose material is pure and that has a corner of another pure material gets a
+/// copy of that vertex with its own material, if the vertex sits on a crease
+/// between the two: each side's material holds [`SIDE_CELLS`] cells from the
+/// vertex toward that side's faces, and the field's normals at those two points
+/// differ by more than [`CREASE_DEGREES`] (or no face of the vertex's own
+/// material touches it). One copy per vertex and material, whose blend is
+/// the mean of the faces that use it. Blends, and borders across smooth surface,
+/// are left to the vertices' weights, so they still fade. Every vertex that is
+/// split takes, on each side, the field's normal just on that side (the crease
+/// is shaded sharp).
 pub fn split_borders(mesh: &mut IndexedMesh, field: &dyn Field, cell: f32) -> BorderSplit {
     let mut out = BorderSplit::default();
     if mesh.materials.len() != mesh.positions.len() || mesh.is_empty() {
@@ -66,8 +66,8 @@ pub fn split_borders(mesh: &mut IndexedMesh, field: &dyn Field, cell: f32) -> Bo
     let face = |t: usize| face_of(&mesh.indices, t);
 
     // Faces with corners of two pure materials are read (inside a blend,
-    // vertices are not pure: nothing to read); their corners are the
-    // vertices a border may run through.
+    // vertices are not pure: nothing to read); their corners are the vertices
+    // a border may run through.
     let mut near = vec![false; mesh.positions.len()];
     let mut read = Vec::new();
     for t in 0..faces {
@@ -85,8 +85,9 @@ pub fn split_borders(mesh: &mut IndexedMesh, field: &dyn Field, cell: f32) -> Bo
         }
     }
     out.faces_read = read.len();
-    // The other faces round those vertices take the material their corners
-    // agree on, when pure (no sample: the field is read only where it must).
+    // The other faces round those vertices are taken to be of the material
+    // their corners agree on, when pure: they only say where each side lies
+    // (no sample; the field is read only where corners disagree).
     let agreed: Vec<(usize, MaterialBlend)> = (0..faces)
         .filter_map(|t| {
             let corners = face(t);
@@ -115,20 +116,17 @@ pub fn split_borders(mesh: &mut IndexedMesh, field: &dyn Field, cell: f32) -> Bo
             is_pure(&m).then_some((t, m))
         })
         .collect();
-    // Around each vertex, where each material's faces lie and which way they
-    // face.
+    // Around each vertex, where each material's faces lie.
     let mut around: HashMap<(u32, u8), Around> = HashMap::new();
     for &(t, m) in sides.iter().chain(&agreed) {
         let corners = face_of(indices, t);
-        let [a, b, c] = corners.map(|v| positions[v as usize]);
-        let (centroid, normal) = ((a + b + c) / 3.0, (b - a).cross(c - a));
+        let centroid = corners.iter().map(|&v| positions[v as usize]).sum::<Vec3>() / 3.0;
         for v in corners {
             let to = centroid - positions[v as usize];
             let e = around.entry((v, m.dominant())).or_default();
             e.direction += to.normalize_or_zero();
             e.distance += to.length();
             e.faces += 1;
-            e.normal += normal;
         }
     }
     // A point just on one material's side of a vertex: toward the mean of
@@ -150,27 +148,12 @@ pub fn split_borders(mesh: &mut IndexedMesh, field: &dyn Field, cell: f32) -> Bo
     // bends by more than CREASE_DEGREES between the two materials' sides of
     // the vertex (it sits on a crease), or no face of its own material
     // touches it. Each (vertex, side) that is cut keeps its side's normal.
-    // Only where the mesh itself bends by half the crease angle is the field
-    // asked (its normals cost six samples each).
     let cos_crease = CREASE_DEGREES.to_radians().cos();
-    let cos_bend = (0.5 * CREASE_DEGREES).to_radians().cos();
-    let bends = |v: u32, side: u8, own: u8| {
-        let (Some(a), Some(b)) = (around.get(&(v, side)), around.get(&(v, own))) else {
-            return true;
-        };
-        a.normal
-            .normalize_or_zero()
-            .dot(b.normal.normalize_or_zero())
-            < cos_bend
-    };
     let mut asked: Vec<(u32, u8, u8)> = Vec::new();
     for &(t, m) in &sides {
         for v in face_of(indices, t) {
             let own = &heaviest[v as usize];
-            if own.dominant() != m.dominant()
-                && is_pure(own)
-                && bends(v, m.dominant(), own.dominant())
-            {
+            if own.dominant() != m.dominant() && is_pure(own) {
                 asked.push((v, m.dominant(), own.dominant()));
             }
         }
@@ -267,8 +250,6 @@ struct Around {
     distance: f32,
     /// How many.
     faces: u32,
-    /// Sum of their area-weighted normals.
-    normal: Vec3,
 }
 
 fn face_of(indices: &[u32], t: usize) -> [u32; 3] {

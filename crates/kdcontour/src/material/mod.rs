@@ -14,7 +14,7 @@
 
 mod borders;
 
-pub use borders::{split_borders, BorderSplit};
+pub use borders::{split_borders, BorderSplit, CREASE_DEGREES, SIDE_CELLS};
 
 use crate::field::Field;
 use crate::kdtree::KdTree;
