@@ -6,7 +6,9 @@
 //! ([`IndexedMesh::materials`]), and the tree keeps material borders crisp: a node
 //! whose surface spans a border is never a leaf (see `kdtree/build.rs` and
 //! [`Settings::material_borders`](crate::Settings::material_borders)). Fields
-//! without materials give the same meshes as before, with no blends.
+//! without materials give the same meshes as before, with no blends. A mesh to
+//! be drawn can have its vertices split where two materials meet at a crease
+//! ([`split_borders`]), so the border is drawn along the crease.
 //!
 //! The terrain's ids are [`terrain_ids`]; CSG scenes name any id `0..=255` with a
 //! `material` node ([`crate::CsgNode::Material`]); brushes carry one too
