@@ -106,8 +106,9 @@ pub fn print_checks(r: &MeshReport) {
     );
     if let Some(m) = &r.materials {
         let off = m.mismatched_vertices.map_or("-".into(), |n| n.to_string());
+        let teeth = m.toothed_triangles.map_or("-".into(), |n| n.to_string());
         say!(
-            "materials  {} border triangles, {off} vertices off the field's material, {} bad blends",
+            "materials  {} border triangles ({teeth} drawn with a tooth), {off} vertices off the field's material, {} bad blends",
             m.border_triangles,
             m.bad_blends
         );

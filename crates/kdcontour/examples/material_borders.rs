@@ -19,8 +19,8 @@
 use glam::Vec3;
 use kdcontour::field::layers;
 use kdcontour::field::terrain::{Density, DensityParams};
-use kdcontour::material::{split_borders, MaterialBlend, PURE};
-use kdcontour::{scenes, Field, Grid, IndexedMesh, KdTree, Settings};
+use kdcontour::material::{split_borders, MaterialBlend};
+use kdcontour::{scenes, validate, Field, Grid, IndexedMesh, KdTree, Settings};
 use std::time::Instant;
 
 /// A plane split at x = 0.113 into materials 1 and 0.
@@ -59,19 +59,12 @@ fn measure(field: &dyn Field, grid: &Grid, threshold: f32, borders: Option<bool>
     (tris, best)
 }
 
-/// Faces whose centroid holds one pure material and that have a corner of
-/// another: each is drawn with a tooth of the corner's colour.
-fn teeth(mesh: &IndexedMesh, field: &dyn Field) -> usize {
-    mesh.indices
-        .chunks(3)
-        .filter(|t| {
-            let c = t.iter().map(|&v| mesh.positions[v as usize]).sum::<Vec3>() / 3.0;
-            let m = field.material(c);
-            m.weights[0] >= PURE
-                && t.iter()
-                    .any(|&v| mesh.materials[v as usize].dominant() != m.dominant())
-        })
-        .count()
+/// Faces drawn with a tooth ([`kdcontour::validate::Materials::toothed_triangles`]).
+fn teeth(mesh: &IndexedMesh, field: &dyn Field, cell: f32) -> usize {
+    validate(mesh, Some((field, cell)))
+        .materials
+        .and_then(|m| m.toothed_triangles)
+        .expect("a field with materials")
 }
 
 /// One row of the split table: `field` on `grid` at `threshold`.
@@ -104,8 +97,8 @@ fn split_row(name: &str, field: &dyn Field, grid: &Grid, threshold: f32, borders
     println!(
         "| {name} | {threshold} | {} | {} | {} | {} | {split_ms:.2} | {extract_ms:.2} |",
         before.triangle_count(),
-        teeth(&before, field),
-        teeth(&split, field),
+        teeth(&before, field, grid.cell_size),
+        teeth(&split, field, grid.cell_size),
         report.vertices_added,
     );
 }

@@ -21,6 +21,7 @@
 use super::{MaterialBlend, PURE};
 use crate::field::Field;
 use crate::mesh::IndexedMesh;
+use crate::validate::CREASE_DEGREES;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -49,12 +50,14 @@ pub struct BorderSplit {
 /// copy of that vertex with its own material, if the vertex sits on a crease
 /// between the two: each side's material holds [`SIDE_CELLS`] cells from the
 /// vertex toward that side's faces, and the field's normals at those two points
-/// differ by more than [`CREASE_DEGREES`] (or no face of the vertex's own
-/// material touches it). One copy per vertex and material, whose blend is
-/// the mean of the faces that use it. Blends, and borders across smooth surface,
-/// are left to the vertices' weights, so they still fade. Every vertex that is
-/// split takes, on each side, the field's normal just on that side (the crease
-/// is shaded sharp).
+/// differ by more than the crease angle `validate` uses
+/// ([`CREASE_DEGREES`](crate::validate::CREASE_DEGREES)), or no face of the
+/// vertex's own material touches it. One copy per vertex and material, whose
+/// blend is the mean of the faces that use it; every vertex that is split takes,
+/// on each side, the field's normal just on that side (the crease is shaded
+/// sharp). Blends, and borders across smooth surface (a snow line, a painted
+/// patch), are left to the vertices' weights, so they still fade: a split there
+/// would colour whole faces one material, patches as angular as the faces.
 pub fn split_borders(mesh: &mut IndexedMesh, field: &dyn Field, cell: f32) -> BorderSplit {
     let mut out = BorderSplit::default();
     if mesh.materials.len() != mesh.positions.len() || mesh.is_empty() {
@@ -104,25 +107,26 @@ pub fn split_borders(mesh: &mut IndexedMesh, field: &dyn Field, cell: f32) -> Bo
     // Each read face's material at its centroid, kept when pure.
     let positions = &mesh.positions;
     let indices = &mesh.indices;
+    let centroid = |t: usize| {
+        face_of(indices, t)
+            .iter()
+            .map(|&v| positions[v as usize])
+            .sum::<Vec3>()
+            / 3.0
+    };
     let sides: Vec<(usize, MaterialBlend)> = read
         .par_iter()
         .filter_map(|&t| {
-            let c = face_of(indices, t)
-                .iter()
-                .map(|&v| positions[v as usize])
-                .sum::<Vec3>()
-                / 3.0;
-            let m = field.material(c);
+            let m = field.material(centroid(t));
             is_pure(&m).then_some((t, m))
         })
         .collect();
     // Around each vertex, where each material's faces lie.
     let mut around: HashMap<(u32, u8), Around> = HashMap::new();
     for &(t, m) in sides.iter().chain(&agreed) {
-        let corners = face_of(indices, t);
-        let centroid = corners.iter().map(|&v| positions[v as usize]).sum::<Vec3>() / 3.0;
-        for v in corners {
-            let to = centroid - positions[v as usize];
+        let c = centroid(t);
+        for v in face_of(indices, t) {
+            let to = c - positions[v as usize];
             let e = around.entry((v, m.dominant())).or_default();
             e.direction += to.normalize_or_zero();
             e.distance += to.length();
@@ -221,14 +225,6 @@ pub fn split_borders(mesh: &mut IndexedMesh, field: &dyn Field, cell: f32) -> Bo
     }
     out
 }
-
-/// The least bend of the field, between the two materials' sides of a vertex,
-/// at which the vertex is split: a border on a crease (a CSG cut, a cave mouth)
-/// is drawn along it. A border across smooth ground (a snow line, a painted
-/// patch, a blend narrower than the faces) is left to the vertices' weights,
-/// which fade across the faces; a split there would colour whole faces one
-/// material, patches as angular as the faces.
-pub const CREASE_DEGREES: f32 = 30.0;
 
 /// How far from a vertex (in cells) each side of a crease is read: near enough
 /// that a border crossing a large face away from its corners (a coarse level
@@ -330,16 +326,10 @@ mod tests {
             // After: no pure face has a corner of another material (every
             // border here is a crease), and a second pass finds nothing.
             let teeth = |m: &IndexedMesh| {
-                m.indices
-                    .chunks(3)
-                    .filter(|t| {
-                        let c = t.iter().map(|&v| m.positions[v as usize]).sum::<Vec3>() / 3.0;
-                        let f = field.material(c);
-                        is_pure(&f)
-                            && t.iter()
-                                .any(|&v| m.materials[v as usize].dominant() != f.dominant())
-                    })
-                    .count()
+                crate::validate(m, Some((&field, 2.0 / 48.0)))
+                    .materials
+                    .and_then(|r| r.toothed_triangles)
+                    .expect("a field with materials")
             };
             assert!(teeth(&before) >= report.toothed_faces, "{threshold}");
             assert_eq!(teeth(&mesh), 0, "{threshold}: {report:?}");

@@ -16,7 +16,7 @@
 
 mod borders;
 
-pub use borders::{split_borders, BorderSplit, CREASE_DEGREES, SIDE_CELLS};
+pub use borders::{split_borders, BorderSplit, SIDE_CELLS};
 
 use crate::field::Field;
 use crate::kdtree::KdTree;

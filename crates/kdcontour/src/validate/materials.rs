@@ -1,9 +1,11 @@
 //! The material check of [`super::validate`]: one well-formed blend per vertex,
-//! each equal to the field's material at the vertex, and how many triangles
-//! span a border between dominant materials.
+//! each equal to the field's material at the vertex, how many triangles span a
+//! border between dominant materials, and how many are drawn with a tooth.
 
 use crate::field::Field;
+use crate::material::PURE;
 use crate::mesh::IndexedMesh;
+use glam::Vec3;
 
 /// The materials of a mesh ([`super::MeshReport::materials`]).
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
@@ -18,6 +20,12 @@ pub struct Materials {
     pub mismatched_vertices: Option<usize>,
     /// Triangles whose three vertices do not share one dominant material.
     pub border_triangles: usize,
+    /// Triangles whose centroid holds one pure material (the field's, weight at
+    /// least [`crate::material::PURE`]) and that have a vertex of another
+    /// dominant material: each is drawn with a wedge of that vertex's colour
+    /// (the sawtooth [`crate::material::split_borders`] removes on creases).
+    /// `None` without a field.
+    pub toothed_triangles: Option<usize>,
 }
 
 /// Checks the materials of `mesh` against `field`'s; `None` when neither the
@@ -62,5 +70,16 @@ pub(super) fn check(
             d.into_iter().any(|x| x != first)
         })
         .count();
+    r.toothed_triangles = field.map(|f| {
+        mesh.indices
+            .chunks_exact(3)
+            .filter(|t| {
+                let c = t.iter().map(|&i| mesh.positions[i as usize]).sum::<Vec3>() / 3.0;
+                let at = f.material(c);
+                at.weights[0] >= PURE
+                    && t.iter().any(|&i| m[i as usize].dominant() != at.dominant())
+            })
+            .count()
+    });
     Some(r)
 }
