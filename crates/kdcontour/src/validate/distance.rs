@@ -145,6 +145,16 @@ fn projection(
     None
 }
 
+/// The values within the root tolerance (to first order, with gradient length
+/// `gl`) of 0: those points are on the surface. 0 where the gradient vanishes.
+fn zero_band(gl: f32, cell: f32) -> f32 {
+    if gl.is_finite() && gl > 0.0 {
+        ROOT_TOL_CELLS * cell * gl
+    } else {
+        0.0
+    }
+}
+
 /// Distance from `p` to the surface of `field` (world units), at most `cap`:
 /// along a Newton path (see [`projection`]), and, when that finds nothing within
 /// one cell, along the six axes too. The crossing found is bracketed on a
@@ -163,11 +173,7 @@ pub(crate) fn to_surface(field: &dyn Field, p: Vec3, cell: f32, cap: f32) -> Opt
     let g = field.gradient(p);
     let gl = g.length();
     // Values within the root tolerance (first order) of 0 are on the surface.
-    let zero = if gl.is_finite() && gl > 0.0 {
-        ROOT_TOL_CELLS * cell * gl
-    } else {
-        0.0
-    };
+    let zero = zero_band(gl, cell);
     if f0.abs() <= zero {
         return Some(f0.abs() / gl);
     }
@@ -251,14 +257,8 @@ fn to_surface_searched(field: &dyn Field, p: Vec3, cell: f32, cap: f32, floor: f
     if first <= floor {
         return first;
     }
-    let f0 = field.value(p);
-    let g = field.gradient(p).length();
-    let zero = if g.is_finite() && g > 0.0 {
-        ROOT_TOL_CELLS * cell * g
-    } else {
-        0.0
-    };
-    ray_search(field, p, f0, zero, first, cell).min(first)
+    let zero = zero_band(field.gradient(p).length(), cell);
+    ray_search(field, p, field.value(p), zero, first, cell).min(first)
 }
 
 /// The points of triangle `[a, b, c]` that [`mesh_to_surface`] measures: the
@@ -283,6 +283,13 @@ fn triangle_samples(a: Vec3, b: Vec3, c: Vec3, cell: f32) -> impl Iterator<Item 
 /// Candidates refined at once by [`mesh_to_surface`]'s search of its maximum.
 const BATCH: usize = 64;
 
+/// What [`mesh_to_surface`] measures again: a vertex or a triangle's points.
+#[derive(Clone, Copy)]
+enum Candidate {
+    Vertex(u32),
+    Triangle(u32),
+}
+
 /// Mesh to surface: the largest and the area-weighted mean distance (world units)
 /// over the vertices and the points of every triangle ([`triangle_samples`]).
 ///
@@ -301,15 +308,14 @@ pub(crate) fn mesh_to_surface(
 ) -> (f32, f32) {
     let cap = DISTANCE_CAP_CELLS * cell;
     let d = |p: Vec3| to_surface(field, p, cell, cap).unwrap_or(0.0);
-    // Candidates: (bound, vertex) and (bound, !triangle).
-    let mut bounds: Vec<(f32, u32)> = pos
+    let mut bounds: Vec<(f32, Candidate)> = pos
         .par_iter()
         .zip(used)
         .enumerate()
         .filter(|(_, (_, &u))| u)
-        .map(|(i, (p, _))| (d(*p), i as u32))
+        .map(|(i, (p, _))| (d(*p), Candidate::Vertex(i as u32)))
         .collect();
-    let per_tri: Vec<(f32, f64, f64, u32)> = tris
+    let per_tri: Vec<(f32, f64, f64, Candidate)> = tris
         .par_iter()
         .zip(listed)
         .enumerate()
@@ -324,7 +330,8 @@ pub(crate) fn mesh_to_surface(
                 n += 1;
             }
             let area = 0.5 * (b - a).cross(c - a).length() as f64;
-            (max, sum / n.max(1) as f64 * area, area, !(t as u32))
+            let t = Candidate::Triangle(t as u32);
+            (max, sum / n.max(1) as f64 * area, area, t)
         })
         .collect();
     let (sum, area) = per_tri
@@ -341,14 +348,15 @@ pub(crate) fn mesh_to_surface(
         let found = bounds[next..end]
             .par_iter()
             .filter(|b| b.0 > floor)
-            .map(|&(_, id)| {
-                if id as usize >= pos.len() {
-                    let [a, b, c] = tris[!id as usize].map(|i| pos[i as usize]);
+            .map(|&(_, candidate)| match candidate {
+                Candidate::Vertex(v) => {
+                    to_surface_searched(field, pos[v as usize], cell, cap, floor)
+                }
+                Candidate::Triangle(t) => {
+                    let [a, b, c] = tris[t as usize].map(|i| pos[i as usize]);
                     triangle_samples(a, b, c, cell)
                         .map(|q| to_surface_searched(field, q, cell, cap, floor))
                         .fold(0f32, f32::max)
-                } else {
-                    to_surface_searched(field, pos[id as usize], cell, cap, floor)
                 }
             })
             .reduce(|| 0.0, f32::max);
@@ -485,13 +493,13 @@ fn refined_max(
     field: &dyn Field,
     grid: &Grid,
     cell: UVec3,
-    n: u32,
+    per_side: u32,
     tris: &TriGrid,
     cap: f32,
 ) -> f32 {
-    let m = n + 1;
+    let m = per_side + 1;
     let base = grid.corner_pos(cell);
-    let h = grid.cell_size / n as f32;
+    let h = grid.cell_size / per_side as f32;
     let at = |k: UVec3| base + k.as_vec3() * h;
     let mut v = vec![0f32; (m * m * m) as usize];
     let idx = |k: UVec3| ((k.z * m + k.y) * m + k.x) as usize;
@@ -504,8 +512,9 @@ fn refined_max(
         let k = UVec3::new(i % m, (i / m) % m, i / (m * m));
         for a in 0..3 {
             let (u, w) = ((a + 1) % 3, (a + 2) % 3);
-            let on_side = |b: usize| k[b] == 0 || k[b] == n;
-            if k[a] == n || k[u] == n || k[w] == n || (on_side(u) && on_side(w)) {
+            let last = per_side;
+            let on_side = |b: usize| k[b] == 0 || k[b] == last;
+            if k[a] == last || k[u] == last || k[w] == last || (on_side(u) && on_side(w)) {
                 continue;
             }
             let n = k + UVec3::AXES[a];
