@@ -18,6 +18,7 @@ use bevy::asset::RenderAssetUsages;
 use bevy::mesh::PrimitiveTopology;
 use bevy::pbr::wireframe::WireframeConfig;
 use bevy::prelude::*;
+use bevy_kdcontour::kdcontour::hermite::Hermite;
 use bevy_kdcontour::kdcontour::kdtree::{self, Partition};
 use bevy_kdcontour::kdcontour::meshers::{Mesher, Sampled};
 use bevy_kdcontour::kdcontour::{meshers, scenes, Grid, IndexedMesh, KdTree, Settings};
@@ -71,8 +72,9 @@ struct Compare {
     res: u32,
     threshold: f32,
     rows: Vec<Row>,
-    /// The samples every mesher reads.
-    sampled: Option<Sampled>,
+    /// The samples every mesher reads (of the scene's field, made again from its
+    /// name when a mesher needs it).
+    hermite: Option<Hermite>,
     sample_ms: f64,
     error: Option<String>,
 }
@@ -109,7 +111,7 @@ fn main() {
         res: args.res,
         threshold: args.threshold,
         rows: Vec::new(),
-        sampled: None,
+        hermite: None,
         sample_ms: 0.0,
         error: None,
     })
@@ -170,14 +172,14 @@ fn setup(
 /// Samples the scene once and runs every mesher (`resample`), or only redoes
 /// the ones the threshold changes (re-cutting the retained trees).
 fn rebuild(cmp: &mut Compare, meshes: &mut Assets<Mesh>, resample: bool) {
+    let scene = match scenes::scene(&cmp.scene) {
+        Ok(s) => s,
+        Err(e) => {
+            cmp.error = Some(e.to_string());
+            return;
+        }
+    };
     if resample {
-        let scene = match scenes::scene(&cmp.scene) {
-            Ok(s) => s,
-            Err(e) => {
-                cmp.error = Some(e.to_string());
-                return;
-            }
-        };
         let settings = Settings::default();
         let grid = Grid::cube(1.0, cmp.res);
         let sampled = match meshers::sample(&*scene.field, &grid, &settings) {
@@ -190,16 +192,29 @@ fn rebuild(cmp: &mut Compare, meshes: &mut Assets<Mesh>, resample: bool) {
         cmp.sample_ms = sampled.sample_ms;
         for row in &mut cmp.rows {
             row.tree = match row.mesher {
-                Mesher::Octree => Some(kdtree::build_with(&sampled.hermite, Partition::Octree)),
-                Mesher::KdTree => Some(kdtree::build_with(&sampled.hermite, Partition::KdTree)),
+                Mesher::Octree => Some(kdtree::build_with(
+                    &sampled.hermite,
+                    sampled.field,
+                    Partition::Octree,
+                )),
+                Mesher::KdTree => Some(kdtree::build_with(
+                    &sampled.hermite,
+                    sampled.field,
+                    Partition::KdTree,
+                )),
                 _ => None,
             };
         }
-        cmp.sampled = Some(sampled);
+        cmp.hermite = Some(sampled.hermite);
         cmp.error = None;
     }
-    let Some(sampled) = cmp.sampled.take() else {
+    let Some(hermite) = cmp.hermite.take() else {
         return;
+    };
+    let sampled = Sampled {
+        hermite,
+        field: &*scene.field,
+        sample_ms: cmp.sample_ms,
     };
     let threshold = cmp.threshold;
     for row in &mut cmp.rows {
@@ -221,7 +236,7 @@ fn rebuild(cmp: &mut Compare, meshes: &mut Assets<Mesh>, resample: bool) {
             *m = bevy_kdcontour::to_bevy_mesh(&mesh);
         }
     }
-    cmp.sampled = Some(sampled);
+    cmp.hermite = Some(sampled.hermite);
 }
 
 fn panel(

@@ -35,9 +35,9 @@ fn stages(c: &mut Criterion, scene: &str, res: u32, threshold: f32) {
         });
         let h = p.install(|| hermite::Hermite::from_field(field, &grid, &settings).unwrap());
         g.bench_function(BenchmarkId::new("build", threads), |b| {
-            b.iter(|| p.install(|| black_box(kdtree::build(&h))))
+            b.iter(|| p.install(|| black_box(kdtree::build(&h, field))))
         });
-        let tree = kdtree::build(&h);
+        let tree = kdtree::build(&h, field);
         let mut mesh = IndexedMesh::default();
         g.bench_function(BenchmarkId::new("contour", threads), |b| {
             b.iter(|| tree.extract(black_box(threshold), &mut mesh))

@@ -48,7 +48,7 @@ fn main() {
                 let t1 = Instant::now();
                 let h = hermite::Hermite::new(&*field, &grid, &values, &settings).unwrap();
                 let t2 = Instant::now();
-                let tree = kdtree::build(&h);
+                let tree = kdtree::build(&h, &*field);
                 let t3 = Instant::now();
                 tree.extract(0.01, &mut mesh);
                 let t4 = Instant::now();

@@ -2,7 +2,7 @@
 
 use crate::error::{Error, Result};
 use crate::material::MaterialBlend;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use std::io::Write;
 
 /// An indexed triangle mesh with per-vertex normals, counter-clockwise front faces
@@ -93,41 +93,14 @@ impl IndexedMesh {
         match k {
             3 => self.indices.extend_from_slice(&poly[..3]),
             4 => {
-                let p = |i: usize| self.positions[poly[i] as usize].as_dvec3();
-                let n = |a: usize, b: usize, c: usize| {
-                    (p(b) - p(a)).cross(p(c) - p(a)).normalize_or_zero()
-                };
-                let tri = |i: [usize; 3]| {
-                    (
-                        i.map(|k| self.positions[poly[k] as usize]),
-                        i.map(|k| self.normals[poly[k] as usize]),
-                    )
-                };
-                let faces = |t: [[usize; 3]; 2]| {
-                    t.iter().all(|&i| {
-                        let (p, n) = tri(i);
-                        triangle_faces(p, n, facing)
-                    })
-                };
-                let (t02, t13) = ([[0, 1, 2], [0, 2, 3]], [[0, 1, 3], [1, 2, 3]]);
-                let (ok02, ok13) = (faces(t02), faces(t13));
-                let use02 = if ok02 != ok13 {
-                    ok02
-                } else {
-                    let bend02 = n(0, 1, 2).dot(n(0, 2, 3));
-                    let bend13 = n(0, 1, 3).dot(n(1, 2, 3));
-                    if (bend02 - bend13).abs() > 1e-6 {
-                        bend02 > bend13
-                    } else {
-                        p(0).distance_squared(p(2)) <= p(1).distance_squared(p(3))
-                    }
-                };
-                let tris = if use02 {
-                    [poly[0], poly[1], poly[2], poly[0], poly[2], poly[3]]
-                } else {
-                    [poly[0], poly[1], poly[3], poly[1], poly[2], poly[3]]
-                };
-                self.indices.extend_from_slice(&tris);
+                let [a, b] = quad_split(
+                    poly.map(|i| self.positions[i as usize]),
+                    poly.map(|i| self.normals[i as usize]),
+                    facing,
+                );
+                for t in [a, b] {
+                    self.indices.extend(t.map(|k| poly[k]));
+                }
             }
             _ => {}
         }
@@ -252,6 +225,68 @@ impl IndexedMesh {
 
 /// Writes a mesh in one format.
 type MeshWriter = fn(&IndexedMesh, &mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>;
+
+/// The two triangles (corners of the quad, in its order) that
+/// [`IndexedMesh::push_polygon_facing`] splits the quad `p` with vertex normals
+/// `n` into: along the diagonal whose two triangles both face `facing`
+/// ([`triangle_faces`]) when only one does, else along the one whose triangles
+/// bend least (the shorter on a tie).
+pub fn quad_split(p: [Vec3; 4], n: [Vec3; 4], facing: Vec3) -> [[usize; 3]; 2] {
+    let s = QuadSplit::new(p, n, facing);
+    let t = QuadSplit::TRIS;
+    if s.takes_02(&p) {
+        [t[0], t[1]]
+    } else {
+        [t[2], t[3]]
+    }
+}
+
+/// The four triangles a quad can be split into ([`QuadSplit::TRIS`]: two along
+/// the diagonal 0-2, two along 1-3), their (unnormalised, f64) normals, and
+/// whether each faces its way ([`triangle_faces`]).
+pub(crate) struct QuadSplit {
+    pub cross: [DVec3; 4],
+    pub faces: [bool; 4],
+}
+
+impl QuadSplit {
+    /// Corners of the four triangles.
+    pub const TRIS: [[usize; 3]; 4] = [[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]];
+
+    /// The triangles of quad `p` (vertex normals `n`) facing `facing`.
+    pub fn new(p: [Vec3; 4], n: [Vec3; 4], facing: Vec3) -> Self {
+        let q = p.map(|x| x.as_dvec3());
+        let facing = facing.as_dvec3();
+        let mut cross = [DVec3::ZERO; 4];
+        let mut faces = [false; 4];
+        for (k, [a, b, c]) in Self::TRIS.into_iter().enumerate() {
+            cross[k] = (q[b] - q[a]).cross(q[c] - q[a]);
+            faces[k] =
+                cross[k].dot(facing) > 0.0 && cross[k].dot((n[a] + n[b] + n[c]).as_dvec3()) >= 0.0;
+        }
+        QuadSplit { cross, faces }
+    }
+
+    /// Whether the mesh splits quad `p` along 0-2 (see [`quad_split`]).
+    pub fn takes_02(&self, p: &[Vec3; 4]) -> bool {
+        let (ok02, ok13) = (
+            self.faces[0] && self.faces[1],
+            self.faces[2] && self.faces[3],
+        );
+        if ok02 != ok13 {
+            return ok02;
+        }
+        let unit = self.cross.map(|c| c.normalize_or_zero());
+        let bend02 = unit[0].dot(unit[1]);
+        let bend13 = unit[2].dot(unit[3]);
+        if (bend02 - bend13).abs() > 1e-6 {
+            bend02 > bend13
+        } else {
+            let q = p.map(|x| x.as_dvec3());
+            q[0].distance_squared(q[2]) <= q[1].distance_squared(q[3])
+        }
+    }
+}
 
 /// Whether the triangle `p` (counter-clockwise seen from outside) faces the way
 /// the dual polygon it comes from must: its normal has a positive component along

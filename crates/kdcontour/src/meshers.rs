@@ -87,20 +87,23 @@ impl Timings {
 }
 
 /// Samples once and keeps the Hermite data for several meshers.
-pub struct Sampled {
+pub struct Sampled<'a> {
     /// The Hermite data.
     pub hermite: Hermite,
+    /// The field it was sampled from.
+    pub field: &'a dyn Field,
     /// How long sampling took (ms).
     pub sample_ms: f64,
 }
 
 /// Samples `field` on `grid` (see [`Hermite::from_field`]).
-pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Sampled> {
+pub fn sample<'a>(field: &'a dyn Field, grid: &Grid, settings: &Settings) -> Result<Sampled<'a>> {
     settings.run(|| {
         let t0 = Instant::now();
         let hermite = Hermite::from_field(field, grid, settings)?;
         Ok(Sampled {
             hermite,
+            field,
             sample_ms: t0.elapsed().as_secs_f64() * 1e3,
         })
     })?
@@ -134,7 +137,7 @@ pub fn run(
                 } else {
                     Partition::KdTree
                 };
-                let tree = kdtree::build_with(&s.hermite, partition);
+                let tree = kdtree::build_with(&s.hermite, s.field, partition);
                 t.build_ms = t0.elapsed().as_secs_f64() * 1e3;
                 let t1 = Instant::now();
                 let m = tree.mesh(threshold);

@@ -81,13 +81,18 @@ pub fn scene_json(name: &str) -> Option<String> {
                 {"type":"box","half_extents":[0.8,0.6,0.8],"center":[0,-0.2,0]},
                 {"type":"heightfield","seed":7,"base":0.1,"amplitude":0.05,"frequency":6,"octaves":4}]}]}"#
             .into(),
+        // The fins go 0.02 into the base: the solid is the one of fins standing
+        // on it, and the field is negative all through it (fins resting on the
+        // base's top made it zero inside the solid where they met, and the
+        // gradient there pointed down into the base: 114 and 152 flipped faces
+        // at res 32 and 64 under every mesher).
         "anisotropic" => {
             let mut parts =
                 vec![r#"{"type":"box","half_extents":[0.62,0.05,0.62],"center":[0,-0.6,0]}"#.to_string()];
             for i in 0..9 {
                 let x = -0.6 + 0.15 * i as f32;
                 parts.push(format!(
-                    r#"{{"type":"box","half_extents":[0.012,0.6,0.6],"center":[{x},0.05,0]}}"#
+                    r#"{{"type":"box","half_extents":[0.012,0.61,0.6],"center":[{x},0.04,0]}}"#
                 ));
             }
             format!(r#"{{"type":"union","children":[{}]}}"#, parts.join(","))

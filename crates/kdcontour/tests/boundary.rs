@@ -3,7 +3,8 @@
 
 use kdcontour::boundary::CappedField;
 use kdcontour::{
-    validate, Boundary, CsgNode, Field, Grid, IndexedMesh, KdTree, MeshReport, Partition, Settings,
+    validate_with, Boundary, Checks, CsgNode, Field, Grid, IndexedMesh, KdTree, MeshReport,
+    Partition, Settings,
 };
 
 /// Planes, slabs, cylinders and boxes that cross the faces of `[-1, 1]^3`, axis
@@ -89,15 +90,26 @@ fn each_mesh(boundary: Boundary, check: impl Fn(&str, &MeshReport, f64, f64)) {
                 assert!(full > 0.5, "{name} res {res}: {full}");
                 for e in [-1.0, 0.001, 0.01, 0.1, 1.0] {
                     let m = tree.mesh(e);
-                    let r = validate(&m, Some((checked, grid.cell_size)));
+                    let r = validate_with(
+                        &m,
+                        &Checks {
+                            field: Some((checked, grid.cell_size)),
+                            intersections: true,
+                            surface: None,
+                        },
+                    );
                     let (covered, raw) = area(&m, checked);
                     let at = format!("{name} res {res} {partition:?} e {e}");
+                    let i = r.intersections.as_ref().unwrap();
                     println!(
-                        "{at}: {} {:.4} {:.4} {:?}",
+                        "{at}: {} {:.4} {:.4} {} {} {} {}",
                         m.triangle_count(),
                         covered / full,
                         raw / full,
-                        r.flipped_triangles.unwrap()
+                        r.flipped_triangles.unwrap(),
+                        r.zero_area_triangles,
+                        i.crossing_triangles,
+                        i.overlapping_triangles
                     );
                     check(&at, &r, covered / full, raw / full);
                 }

@@ -129,7 +129,8 @@ fn bad_input_is_refused_and_empty_fields_mesh_to_nothing() {
         |_p| -1.0,
         |p| (p - Vec3::splat(3.0)).length() - 0.5,
     ] {
-        let s = meshers::sample(&FnField(f), &Grid::cube(1.0, 16), &Settings::default()).unwrap();
+        let field = FnField(f);
+        let s = meshers::sample(&field, &Grid::cube(1.0, 16), &Settings::default()).unwrap();
         let (m, _) = meshers::run(Mesher::DiscretePlanes, &s, -1.0, &Settings::default()).unwrap();
         assert!(m.is_empty() && m.positions.is_empty());
     }

@@ -13,9 +13,12 @@ use kdcontour::meshers::{self, Mesher, Sampled};
 use kdcontour::skeleton_climbing::{block_for_threshold, skeleton_climbing};
 use kdcontour::{scenes, validate, Error, Grid, IndexedMesh, MeshReport, Settings};
 
-fn sampled(name: &str, res: u32) -> Sampled {
-    let scene = scenes::scene(name).unwrap();
+fn sampled(scene: &scenes::Scene, res: u32) -> Sampled<'_> {
     meshers::sample(&*scene.field, &Grid::cube(1.0, res), &Settings::default()).unwrap()
+}
+
+fn scene(name: &str) -> scenes::Scene {
+    scenes::scene(name).unwrap()
 }
 
 fn mc(s: &Sampled) -> MeshReport {
@@ -33,7 +36,8 @@ fn climb(s: &Sampled, block: u32) -> (IndexedMesh, MeshReport) {
 fn block_1_is_marching_cubes_topology_on_every_scene() {
     for name in scenes::SCENES {
         for res in [32, 48] {
-            let s = sampled(name, res);
+            let scene = scene(name);
+            let s = sampled(&scene, res);
             let (m, r) = (mc(&s), climb(&s, 1).1);
             assert!(r.triangles > 0, "{name} res {res}: empty");
             assert!(r.is_closed_manifold(), "{name} res {res}: {r:?}");
@@ -49,7 +53,8 @@ fn block_1_is_marching_cubes_topology_on_every_scene() {
 fn coarse_blocks_are_closed_oriented_and_smaller_on_every_scene() {
     for name in scenes::SCENES {
         for res in [32, 48] {
-            let s = sampled(name, res);
+            let scene = scene(name);
+            let s = sampled(&scene, res);
             let m = mc(&s);
             for block in [2, 4, 8, 16] {
                 let r = climb(&s, block).1;
@@ -79,7 +84,8 @@ fn caves_is_the_scene_whose_topology_coarse_boxes_change() {
     // whose every sample line is crossed once closes, and two boxes can draw the
     // same edge in a face they share. Recorded, not hidden: if this starts to
     // hold, move caves into the test above.
-    let s = sampled("caves", 48);
+    let scene = scene("caves");
+    let s = sampled(&scene, 48);
     let m = mc(&s);
     let changed = [2, 4, 8, 16].iter().any(|&b| {
         let r = climb(&s, b).1;
@@ -148,7 +154,8 @@ fn the_threshold_picks_the_box_size_limit() {
     assert_eq!(block_for_threshold(1e9), 64);
     assert_eq!(block_for_threshold(f32::NAN), 1);
     // Larger thresholds never give more triangles.
-    let s = sampled("torus", 48);
+    let scene = scene("torus");
+    let s = sampled(&scene, 48);
     let mut last = usize::MAX;
     for t in [-1.0, 0.01, 0.1] {
         let (m, _) = meshers::run(Mesher::SkeletonClimbing, &s, t, &Settings::default()).unwrap();
@@ -159,7 +166,8 @@ fn the_threshold_picks_the_box_size_limit() {
 
 #[test]
 fn a_block_size_that_is_no_power_of_two_or_too_large_is_refused() {
-    let s = sampled("sphere", 16);
+    let scene = scene("sphere");
+    let s = sampled(&scene, 16);
     for block in [0, 3, 12, 128] {
         let e = skeleton_climbing(&s.hermite, block).err();
         assert!(
@@ -182,7 +190,8 @@ fn nan_samples_are_an_error_and_an_empty_field_an_empty_mesh() {
     let e = meshers::sample(&nan, &grid, &Settings::default()).err();
     assert!(matches!(e, Some(Error::NonFiniteSample { .. })), "{e:?}");
     for value in [1.0f32, -1.0] {
-        let s = meshers::sample(&FnField(move |_| value), &grid, &Settings::default()).unwrap();
+        let field = FnField(move |_| value);
+        let s = meshers::sample(&field, &grid, &Settings::default()).unwrap();
         for threshold in [-1.0, 0.01, 1.0] {
             let (m, _) = meshers::run(
                 Mesher::SkeletonClimbing,

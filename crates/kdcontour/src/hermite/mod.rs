@@ -7,6 +7,7 @@
 use crate::boundary::{self, Boundary, Cap};
 use crate::cell::{edge_index, opposite_face, CellTables, NO_COMP};
 use crate::error::{Error, Result};
+use crate::facing::Facing;
 use crate::field::Field;
 use crate::grid::Grid;
 use crate::material;
@@ -59,6 +60,28 @@ pub struct Hermite {
     /// 3x3x3 block around it), or [`material::MIXED`] where they differ (a
     /// border is near). Empty otherwise.
     pub cell_material: Vec<u16>,
+    /// With [`Boundary::Capped`] and a solid that reaches the grid's faces, the
+    /// grid the caps close (this data's grid less its layer of caps); `None`
+    /// otherwise.
+    pub capped: Option<Grid>,
+}
+
+/// What [`Hermite::surface`] gives: a field, or a field cut by caps.
+pub enum Surface<'a> {
+    /// The field itself.
+    Field(&'a dyn Field),
+    /// The field cut by the box the caps close.
+    Capped(boundary::CappedField<'a>),
+}
+
+impl Surface<'_> {
+    /// The surface as a field.
+    pub fn field(&self) -> &dyn Field {
+        match self {
+            Surface::Field(f) => *f,
+            Surface::Capped(c) => c,
+        }
+    }
 }
 
 /// The surface crossing on one grid edge.
@@ -134,7 +157,7 @@ impl Hermite {
             check_grid(&big, settings)?;
             let values = boundary::pad_values(grid, &values);
             let cap = Cap { cells: big.cells };
-            return Hermite::build(field, &big, &values, settings, Some(cap));
+            return Hermite::build(field, &big, &values, settings, Some((cap, *grid)));
         }
         Hermite::new(field, grid, &values, settings)
     }
@@ -149,14 +172,21 @@ impl Hermite {
         Hermite::build(field, grid, values, settings, None)
     }
 
-    /// [`Hermite::new`], on a grid whose added corners `cap` marks when capped.
+    /// [`Hermite::new`], on a grid whose added corners `cap` marks when capped
+    /// (with the grid the caps close).
     fn build(
         field: &dyn Field,
         grid: &Grid,
         values: &[f32],
         settings: &Settings,
-        cap: Option<Cap>,
+        capped: Option<(Cap, Grid)>,
     ) -> Result<Self> {
+        let (cap, capped) = (capped.map(|c| c.0), capped.map(|c| c.1));
+        let cut = capped.map(|g| boundary::CappedField::new(field, &g));
+        let surface: &dyn Field = match &cut {
+            Some(c) => c,
+            None => field,
+        };
         let tables = CellTables::get();
         let n = grid.cells;
         let corners = grid.corners();
@@ -423,7 +453,13 @@ impl Hermite {
                 }
             }
         }
-        let patch_vertex = vertex::cell_vertices(&cells, &patch_qef, &patch_normal, &quads);
+        let patch_vertex = vertex::cell_vertices(
+            &cells,
+            &patch_qef,
+            &patch_normal,
+            &quads,
+            &Facing::new(surface, grid),
+        );
         drop(quads);
         let cell_material = dilate(&cells, &own_material, n, |c| lookup[lin(c)]);
         drop(lookup);
@@ -454,7 +490,17 @@ impl Hermite {
             crossings,
             edges,
             cell_material,
+            capped,
         })
+    }
+
+    /// The surface this data's polygons are held to: `field`, the field it was
+    /// sampled from, cut by the caps' box when capped ([`Hermite::capped`]).
+    pub fn surface<'a>(&self, field: &'a dyn Field) -> Surface<'a> {
+        match &self.capped {
+            Some(g) => Surface::Capped(boundary::CappedField::new(field, g)),
+            None => Surface::Field(field),
+        }
     }
 
     /// Whether corner `(x, y, z)` is outside.
@@ -514,6 +560,16 @@ fn dilate(
 /// more error); 0.1 is between.
 pub const FORCED_CROSSING_T: f32 = 0.1;
 
+/// How near a sample on the surface (a field zero at a grid corner to the root
+/// search's tolerance, as a terrain's height field is at its origin) a crossing
+/// from it may be, as a fraction of the edge: at the sample, the crossings of
+/// every edge from that corner would be on it, and the cells around it would put
+/// their vertices on top of each other (zero-area faces). A hundredth of an edge
+/// keeps them apart and moves the crossing by that much. Crossings near other
+/// samples stay where the field puts them (nudging them all would tilt the planes
+/// of flat faces: the box's adaptive meshes grew 12%).
+pub const END_T: f32 = 0.01;
+
 /// The crossing along `p0 + t * dir`, `t` in `[0, 1]`, between samples `v0` and `v1`
 /// of opposite sign: linear interpolation refined by up to `iterations` steps of the
 /// Illinois false-position method on the field itself.
@@ -524,7 +580,8 @@ pub const FORCED_CROSSING_T: f32 = 0.1;
 /// every cell around that end would put its vertex there, on top of each other
 /// (zero-area triangles). When the search ends at an end whose sample the field
 /// contradicts, the crossing goes [`FORCED_CROSSING_T`] of the edge away from it,
-/// and the second value says so.
+/// and the second value says so. A crossing from a sample on the surface stays
+/// [`END_T`] of the edge from it.
 fn find_root(
     field: &dyn Field,
     grid: &Grid,
@@ -593,6 +650,13 @@ fn find_root(
         if field_there.is_finite() && (field_there >= 0.0) != (sample >= 0.0) {
             return Ok(((end - FORCED_CROSSING_T).abs(), true));
         }
+    }
+    // A root at a sample that is itself on the surface moves into the edge.
+    if v0.abs() <= tol {
+        t = t.max(END_T);
+    }
+    if v1.abs() <= tol {
+        t = t.min(1.0 - END_T);
     }
     Ok((t, false))
 }

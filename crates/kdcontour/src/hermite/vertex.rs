@@ -3,11 +3,12 @@
 //! Dual contouring puts a cell's vertex at its QEF's minimiser (section 4), held
 //! in the cell. Where the surface bends within a cell or two sheets pass through
 //! it (thin plates, a crease between three surfaces), the minimisers of the
-//! cells around an edge can sit so that the edge's dual quad folds: neither
-//! diagonal splits it into two triangles that face the way the edge crosses the
-//! surface and agree with their vertices' normals ([`triangle_faces`]), and the
-//! mesh has a flipped or self-crossing face. The clustering's fold guard
-//! (`kdtree::fold`) keeps merged leaves from folding; this keeps the cells from it.
+//! cells around an edge can sit so that the edge's dual quad folds: as the mesh
+//! splits it, a triangle does not face the way the edge crosses the surface, is a
+//! zero-area, or is flipped against the field ([`Facing::polygon`]), and the mesh
+//! has a flipped, zero-area or self-crossing face. The clustering's fold guard
+//! (`kdtree::fold`) keeps merged leaves from folding; this keeps the cells from
+//! it.
 //!
 //! Every patch starts at its minimiser. Each crossing edge with four cells around
 //! it tests its quad ([`quad_faces`]). The patches of a quad that folds step a
@@ -22,15 +23,20 @@
 //! quads around them do not fold.
 //!
 //! On the built-in scenes (`cargo run --release -p kdcontour --example
-//! defects`, summed over five thresholds) this took flipped faces at res 32 and
-//! 64 from 3,717 to 1,840 and crossing faces from 1,379 to 827, and at res 128
-//! flipped faces from 1,441 to 682 with crossing ones unchanged (68); no count
-//! grew on any scene, and triangle counts moved by under 0.25%.
+//! defects`, summed over five thresholds) the first version of this (quads held
+//! to the crossing's normal, not the field at their centroids) took flipped faces
+//! at res 32 and 64 from 3,717 to 1,840 and crossing faces from 1,379 to 827.
+//! Held to the field with [`Facing`], flipped faces there went from 1,840 to 989
+//! (none left on the analytic and CSG scenes), crossing ones from 827 to 610 and
+//! zero-area ones from 10 to 0. What is left at other resolutions is where two
+//! surfaces pass within a fraction of a cell (csg_mix's capsule under its box,
+//! the gyroid's shell cut by its sphere) and the neighbours' vertices were
+//! clamped onto a shared face: no step toward the mass points unfolds them.
 
 use super::ActiveCell;
 use crate::cell::CellTables;
 use crate::comp::Comp;
-use crate::mesh::triangle_faces;
+use crate::facing::Facing;
 use crate::qef::Qef;
 use crate::validate::tritri::{contact, Contact, Tolerance};
 use glam::{DVec3, Vec3};
@@ -62,6 +68,7 @@ pub(super) fn cell_vertices(
     qef: &[Qef],
     normal: &[Vec3],
     quads: &[DualQuad],
+    facing: &Facing,
 ) -> Vec<Vec3> {
     let tables = CellTables::get();
     // Each patch's cell.
@@ -97,7 +104,7 @@ pub(super) fn cell_vertices(
     for _ in 0..MAX_ROUNDS {
         let mut moving: Vec<u32> = quads
             .par_iter()
-            .filter(|q| !quad_faces(q, &rounded, &unit))
+            .filter(|q| !quad_faces(q, &rounded, &unit, facing))
             .flat_map_iter(|q| q.patches)
             .filter(|&p| step[p as usize] < STEPS)
             .collect();
@@ -136,20 +143,15 @@ pub(super) fn cell_vertices(
     vertex
 }
 
-/// Whether one of the quad's diagonals splits it into two triangles that both
-/// face its edge's way ([`triangle_faces`], as
-/// [`crate::IndexedMesh::push_polygon_facing`] splits it) and do not oppose the
-/// field's normal where the surface crosses the edge (the nearest stand-in for
-/// the gradient at the triangles' centroids that `validate` checks).
-fn quad_faces(q: &DualQuad, vertex: &[Vec3], unit: &[Vec3]) -> bool {
-    let p = q.patches.map(|i| vertex[i as usize]);
-    let n = q.patches.map(|i| unit[i as usize]);
-    let tri = |i: [usize; 3]| {
-        let t = i.map(|k| p[k]);
-        triangle_faces(t, i.map(|k| n[k]), q.facing)
-            && (t[1] - t[0]).cross(t[2] - t[0]).dot(q.normal) >= 0.0
-    };
-    (tri([0, 1, 2]) && tri([0, 2, 3])) || (tri([0, 1, 3]) && tri([1, 2, 3]))
+/// Whether the quad faces its edge's way as the mesh will split it
+/// ([`Facing::polygon`]: each triangle faces the edge, is not flipped against the
+/// field) and no triangle opposes the field's normal where the surface crosses
+/// the edge.
+fn quad_faces(q: &DualQuad, vertex: &[Vec3], unit: &[Vec3], facing: &Facing) -> bool {
+    let corners = q.patches.map(|i| (vertex[i as usize], unit[i as usize]));
+    facing.polygon(&corners, q.facing, |t| {
+        crate::validate::face_normal(t).dot(q.normal.as_dvec3()) >= 0.0
+    })
 }
 
 /// The quads around each patch (built once a quad folds).

@@ -112,15 +112,19 @@ impl Ctx<'_> {
 }
 
 /// Builds the retained tree from Hermite data with the paper's k-d partition.
-pub fn build(h: &Hermite) -> KdTree {
-    build_with(h, Partition::KdTree)
+/// `field` is the field the data was sampled from: the fold guard holds the
+/// clustered polygons to it (`kdtree::fold`).
+pub fn build(h: &Hermite, field: &dyn Field) -> KdTree {
+    build_with(h, field, Partition::KdTree)
 }
 
-/// Builds the retained tree from Hermite data with the given partition.
-pub fn build_with(h: &Hermite, partition: Partition) -> KdTree {
+/// Builds the retained tree from Hermite data (sampled from `field`) with the
+/// given partition.
+pub fn build_with(h: &Hermite, field: &dyn Field, partition: Partition) -> KdTree {
     let g = h.grid.cells;
     build_in(
         h,
+        field,
         partition,
         [0, 0, 0],
         [g.x as u16, g.y as u16, g.z as u16],
@@ -129,9 +133,11 @@ pub fn build_with(h: &Hermite, partition: Partition) -> KdTree {
 
 /// Builds the tree over the cells in the box `core_min..core_max` only (a chunk
 /// inside a grid with a halo: the halo's cells decide the face resolution of the
-/// core's boundary cells but belong to the neighbouring chunk).
+/// core's boundary cells but belong to the neighbouring chunk). `field` is the
+/// field the data was sampled from.
 pub fn build_in(
     h: &Hermite,
+    field: &dyn Field,
     partition: Partition,
     core_min: [u16; 3],
     core_max: [u16; 3],
@@ -200,7 +206,7 @@ pub fn build_in(
         stats: Default::default(),
         materials: Vec::new(),
     };
-    refuse_folding_leaves(&mut tree, h);
+    refuse_folding_leaves(&mut tree, h, h.surface(field).field());
     tree
 }
 
@@ -211,7 +217,7 @@ impl KdTree {
             let t0 = Instant::now();
             let h = Hermite::from_field(field, grid, settings)?;
             let t1 = Instant::now();
-            let mut tree = build_with(&h, settings.partition);
+            let mut tree = build_with(&h, field, settings.partition);
             crate::material::paint_tree(&mut tree, field, settings);
             let t2 = Instant::now();
             tree.stats = BuildStats {

@@ -16,10 +16,12 @@
 //! the tree is built: a polygon must face the way its edge crosses the surface
 //! (from the inside corner to the outside one). A triangle faces that way when its
 //! normal has a positive component along the edge and does not oppose its
-//! vertices' normals ([`crate::mesh::triangle_faces`]), a quad when one of its
-//! diagonals splits it into two such triangles (the diagonal
-//! [`crate::IndexedMesh::push_polygon_facing`] then takes). Where a polygon does
-//! not, the largest clustered leaf in it may no longer be a leaf (`leaf_ok`): it
+//! vertices' normals ([`crate::mesh::triangle_faces`]), has more than zero area and is not
+//! flipped against the field's gradient at its centroid; a quad when the two
+//! triangles [`crate::IndexedMesh::push_polygon_facing`] splits it into do
+//! ([`Facing::polygon`], the test `validate` counts flipped and zero-area faces
+//! by). Where a polygon does not, the largest clustered leaf in it may no longer
+//! be a leaf (`leaf_ok`): it
 //! stays clusterable, so its ancestors may still cluster and are tested in turn,
 //! and the cut passes through its children instead. Refusals change other edges'
 //! polygons, so the pass repeats until none is refused. Seen along its edge, a
@@ -34,8 +36,9 @@
 
 use super::{KdNode, KdTree, CELL, NONE};
 use crate::cell::{edge_index, CellTables, NO_COMP};
+use crate::facing::Facing;
+use crate::field::Field;
 use crate::hermite::Hermite;
-use crate::mesh::triangle_faces;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -84,10 +87,11 @@ impl Rung {
 
 /// Clears `leaf_ok` on every clustered node whose polygons would fold at some
 /// threshold (see the module docs). Returns how many nodes it refused.
-pub(super) fn refuse_folding_leaves(tree: &mut KdTree, h: &Hermite) -> usize {
+pub(super) fn refuse_folding_leaves(tree: &mut KdTree, h: &Hermite, surface: &dyn Field) -> usize {
     if tree.root == NONE {
         return 0;
     }
+    let test = &Facing::new(surface, &tree.grid);
     let edges = crossing_edges(tree);
     let h = &Halo::new(h);
     // The first pass visits every edge and learns its four cells; later ones only
@@ -98,7 +102,7 @@ pub(super) fn refuse_folding_leaves(tree: &mut KdTree, h: &Hermite) -> usize {
     let cells: Vec<[u32; 4]> = edges
         .par_iter()
         .map_init(Scratch::default, |s, e| {
-            let cells = check_edge(t, h, *e, s);
+            let cells = check_edge(t, h, *e, s, test);
             if !s.refused.is_empty() {
                 found
                     .lock()
@@ -132,7 +136,7 @@ pub(super) fn refuse_folding_leaves(tree: &mut KdTree, h: &Hermite) -> usize {
             .into_par_iter()
             .filter(|&i| touches_refused(&cells[i], under))
             .map_init(Scratch::default, |s, i| {
-                check_edge(t, h, edges[i], s);
+                check_edge(t, h, edges[i], s, test);
                 std::mem::take(&mut s.refused)
             })
             .flatten_iter()
@@ -342,7 +346,7 @@ fn climb(tree: &KdTree, path: &[u32], shared: usize, edge: usize, rungs: &mut Ve
 /// Returns the edge's four cells, or all [`NONE`] when one is not in the tree or
 /// when no corner can ever be a clustered node (refusals only take rungs away, so
 /// such an edge never needs looking at again).
-fn check_edge(tree: &KdTree, halo: &Halo, edge: Edge, s: &mut Scratch) -> [u32; 4] {
+fn check_edge(tree: &KdTree, halo: &Halo, edge: Edge, s: &mut Scratch, test: &Facing) -> [u32; 4] {
     let Edge { line, d } = edge;
     let (u, v) = ((d + 1) % 3, (d + 2) % 3);
     let mut cells = [NONE; 4];
@@ -436,7 +440,7 @@ fn check_edge(tree: &KdTree, halo: &Halo, edge: Edge, s: &mut Scratch) -> [u32; 
         let mut climbed = [0, 1, 2, 3].map(|q| at[q] != before[q]);
         loop {
             let leaves = [0, 1, 2, 3].map(|q| s.ladders[q][at[q]]);
-            if faces(leaves, d, inside_low) {
+            if faces(leaves, d, inside_low, test) {
                 break;
             }
             // Refuse the largest clustered leaf among the corners that just
@@ -479,8 +483,8 @@ fn volume(n: &KdNode) -> u64 {
 }
 
 /// Whether the polygon of the leaves `at` (in quadrant order) faces the way its
-/// edge along `d` crosses the surface.
-fn faces(at: [Rung; 4], d: usize, inside_low: bool) -> bool {
+/// edge along `d` crosses the surface ([`Facing::polygon`]).
+fn faces(at: [Rung; 4], d: usize, inside_low: bool, test: &Facing) -> bool {
     let mut poly = at;
     let mut facing = Vec3::ZERO;
     facing[d] = 1.0;
@@ -497,10 +501,5 @@ fn faces(at: [Rung; 4], d: usize, inside_low: bool) -> bool {
             k += 1;
         }
     }
-    let ok = |i: [usize; 3]| triangle_faces(i.map(|j| pts[j].0), i.map(|j| pts[j].1), facing);
-    match k {
-        3 => ok([0, 1, 2]),
-        4 => (ok([0, 1, 2]) && ok([0, 2, 3])) || (ok([0, 1, 3]) && ok([1, 2, 3])),
-        _ => true,
-    }
+    k < 3 || test.polygon(&pts[..k], facing, |_| true)
 }

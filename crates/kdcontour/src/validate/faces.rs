@@ -112,8 +112,7 @@ pub(crate) fn against_field(
         max = max.max(d);
         sum += d as f64;
         n += 1;
-        let normal = (b.as_dvec3() - a.as_dvec3()).cross(c.as_dvec3() - a.as_dvec3());
-        if ok && g.is_finite() && normal.dot(g.as_dvec3()) < 0.0 {
+        if ok && opposes(face_normal([a, b, c]), g) {
             flipped += 1;
         }
     }
@@ -123,6 +122,25 @@ pub(crate) fn against_field(
         max_vertex_error,
         flipped,
     }
+}
+
+/// The (unnormalised) normal of triangle `t`, counter-clockwise seen from its
+/// front, in f64.
+pub(crate) fn face_normal([a, b, c]: [Vec3; 3]) -> DVec3 {
+    (b.as_dvec3() - a.as_dvec3()).cross(c.as_dvec3() - a.as_dvec3())
+}
+
+/// Whether a face of normal `normal` is flipped against the field's gradient `g`
+/// at its centroid: they point more than 90 degrees apart. The one definition
+/// the checker counts and the mesher's guards keep (`hermite::vertex`,
+/// `kdtree::fold`).
+pub(crate) fn opposes(normal: DVec3, g: Vec3) -> bool {
+    g.is_finite() && normal.dot(g.as_dvec3()) < 0.0
+}
+
+/// Whether triangle `t` (world units) is flipped ([`opposes`] at its centroid).
+pub(crate) fn flipped(field: &dyn Field, t: [Vec3; 3]) -> bool {
+    opposes(face_normal(t), field.gradient((t[0] + t[1] + t[2]) / 3.0))
 }
 
 /// The f64 corners of triangle `t`.

@@ -53,6 +53,7 @@ mod spatial;
 pub(crate) mod tritri;
 
 pub use distance::{DISTANCE_CAP_CELLS, LOST_CELLS};
+pub(crate) use faces::{face_normal, flipped};
 pub use faces::{SLIVER_DEGREES, ZERO_AREA_CELLS2};
 pub use folds::{Folds, CREASE_DEGREES, FOLD_BUCKET_DEGREES, FOLD_DEGREES};
 pub use materials::Materials;

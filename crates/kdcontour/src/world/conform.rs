@@ -88,6 +88,7 @@ impl LevelBuild {
             let r = self.res as u16;
             let mut tree = kdtree::build_in(
                 &h,
+                field,
                 self.settings.partition,
                 [1, 1, 1],
                 [r + 1, r + 1, r + 1],

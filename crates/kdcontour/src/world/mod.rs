@@ -624,7 +624,13 @@ fn build_chunk_tree(
         };
         let h = Hermite::new(field, grid, &values, settings)?;
         let r = res as u16;
-        let mut tree = kdtree::build_in(&h, settings.partition, [1, 1, 1], [r + 1, r + 1, r + 1]);
+        let mut tree = kdtree::build_in(
+            &h,
+            field,
+            settings.partition,
+            [1, 1, 1],
+            [r + 1, r + 1, r + 1],
+        );
         crate::material::paint_tree(&mut tree, field, settings);
         Ok(tree)
     })?

@@ -1,0 +1,113 @@
+//! Whether a dual polygon faces the way the surface does (issue 13): the one test
+//! the cells' vertices (`hermite::vertex`) and the fold guard
+//! (`kdtree::fold`) hold every polygon to, on the triangles the mesh will emit.
+//!
+//! A polygon faces its way when the mesh's split of it
+//! ([`crate::mesh::quad_split`]) gives triangles that each face the polygon's grid
+//! edge ([`triangle_faces`]), none has zero area and none is flipped against the
+//! field: its normal does not point more than 90 degrees from the field's
+//! gradient at its centroid. Both as [`validate`](mod@crate::validate) counts zero-area and
+//! flipped faces, on the same world coordinates the mesh will have. The gradient is read only for triangles whose normal is more
+//! than [`FIELD_CHECK_DEGREES`] from one of their vertices' normals (the field's
+//! gradients where the vertices' planes were measured): a triangle that close to
+//! all three of them would need the gradient to turn by more than 30 degrees
+//! between its corners and its centroid to be flipped.
+
+use crate::field::Field;
+use crate::grid::Grid;
+use crate::mesh::{triangle_faces, QuadSplit};
+use crate::validate;
+use glam::{DVec3, Vec3};
+
+/// A triangle whose normal is more than this many degrees from one of its
+/// vertices' normals is checked against the field's gradient at its centroid.
+pub const FIELD_CHECK_DEGREES: f32 = 60.0;
+
+/// The polygon test of one grid (see the module docs).
+#[derive(Clone, Copy)]
+pub(crate) struct Facing<'a> {
+    field: &'a dyn Field,
+    grid: Grid,
+    /// `cos²` of [`FIELD_CHECK_DEGREES`].
+    check_cos2: f64,
+    /// Twice the smallest area a triangle may have (world units).
+    min_twice_area: f64,
+}
+
+impl<'a> Facing<'a> {
+    /// The test for polygons whose vertices are in `grid`'s units over `field`.
+    pub fn new(field: &'a dyn Field, grid: &Grid) -> Self {
+        Facing {
+            field,
+            grid: *grid,
+            check_cos2: (FIELD_CHECK_DEGREES as f64).to_radians().cos().powi(2),
+            min_twice_area: 2.0 * validate::ZERO_AREA_CELLS2 * (grid.cell_size as f64).powi(2),
+        }
+    }
+
+    /// Whether the polygon of `corners` (three or four distinct vertices in the
+    /// contouring's order, grid units, each with its normal) faces `facing` (its
+    /// edge from the inside corner to the outside one), and each of its triangles
+    /// passes `also` too (on world positions).
+    pub fn polygon(
+        &self,
+        corners: &[(Vec3, Vec3)],
+        facing: Vec3,
+        also: impl Fn([Vec3; 3]) -> bool,
+    ) -> bool {
+        let world = |i: usize| self.grid.to_world(corners[i].0);
+        match corners.len() {
+            3 => {
+                let p = [0, 1, 2].map(world);
+                let n = [0, 1, 2].map(|i| corners[i].1);
+                triangle_faces(p, n, facing)
+                    && self.holds(p, n, crate::validate::face_normal(p), &also)
+            }
+            4 => {
+                let p = [0, 1, 2, 3].map(world);
+                let n = [0, 1, 2, 3].map(|i| corners[i].1);
+                let s = QuadSplit::new(p, n, facing);
+                if !((s.faces[0] && s.faces[1]) || (s.faces[2] && s.faces[3])) {
+                    return false;
+                }
+                let pair = if s.takes_02(&p) { [0, 1] } else { [2, 3] };
+                pair.into_iter().all(|k| {
+                    let t = QuadSplit::TRIS[k];
+                    s.faces[k] && self.holds(t.map(|i| p[i]), t.map(|i| n[i]), s.cross[k], &also)
+                })
+            }
+            _ => true,
+        }
+    }
+
+    /// The tests past facing its edge, on triangle `p` (world units) with
+    /// vertex normals `n` and normal `cross` (unnormalised): it is not a
+    /// zero-area face ([`Facing::sized`]), passes `also`, and is not flipped against the
+    /// field.
+    fn holds(
+        &self,
+        p: [Vec3; 3],
+        n: [Vec3; 3],
+        cross: DVec3,
+        also: &impl Fn([Vec3; 3]) -> bool,
+    ) -> bool {
+        self.sized(cross) && also(p) && !(self.strays(cross, n) && validate::flipped(self.field, p))
+    }
+
+    /// Whether a triangle of normal `cross` (unnormalised) has at least the area
+    /// [`validate`](mod@crate::validate) counts as more than zero.
+    fn sized(&self, cross: DVec3) -> bool {
+        cross.length_squared() >= self.min_twice_area * self.min_twice_area
+    }
+
+    /// Whether a triangle of normal `cross` points more than
+    /// [`FIELD_CHECK_DEGREES`] from one of its vertices' normals `n` (unit, or
+    /// zero where the field had no gradient: that strays too).
+    fn strays(&self, cross: DVec3, n: [Vec3; 3]) -> bool {
+        let limit = self.check_cos2 * cross.length_squared();
+        n.iter().any(|v| {
+            let d = cross.dot(v.as_dvec3());
+            d <= 0.0 || d * d < limit
+        })
+    }
+}
