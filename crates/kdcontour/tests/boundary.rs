@@ -2,9 +2,10 @@
 //! covers at every threshold, capped meshes are closed, on both partitions.
 
 use kdcontour::boundary::CappedField;
+mod common;
+use common::area;
 use kdcontour::{
-    validate_with, Boundary, Checks, CsgNode, Field, Grid, IndexedMesh, KdTree, MeshReport,
-    Partition, Settings,
+    validate_with, Boundary, Checks, CsgNode, Field, Grid, KdTree, MeshReport, Partition, Settings,
 };
 
 /// Planes, slabs, cylinders and boxes that cross the faces of `[-1, 1]^3`, axis
@@ -47,22 +48,6 @@ const OPEN_SCENES: [(&str, &str); 8] = [
             {"type":"box","half_extents":[1.5,0.45,0.45]}}"#,
     ),
 ];
-
-/// The area of `m` that faces the way the field's gradient does, less the area
-/// that faces against it: the surface covered, counted once where a fan folds
-/// over itself (folds are counted as flipped and overlapping faces by
-/// `validate`, issue 13's deliver 2), and the raw area.
-fn area(m: &IndexedMesh, field: &dyn Field) -> (f64, f64) {
-    let (mut covered, mut raw) = (0.0, 0.0);
-    for t in m.indices.chunks_exact(3) {
-        let [a, b, c] = [0, 1, 2].map(|i| m.positions[t[i] as usize]);
-        let n = (b - a).as_dvec3().cross((c - a).as_dvec3());
-        let g = field.gradient((a + b + c) / 3.0).as_dvec3();
-        raw += 0.5 * n.length();
-        covered += 0.5 * n.length() * n.dot(g).signum();
-    }
-    (covered, raw)
-}
 
 /// Meshes every scene at res 32 and 64 on both partitions with `boundary`, and
 /// checks each mesh with `check(report, covered area / uniform's, raw area /
