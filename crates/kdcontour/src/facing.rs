@@ -6,9 +6,10 @@
 //! ([`crate::mesh::quad_split`]) gives triangles that each face the polygon's grid
 //! edge ([`triangle_faces`]), none has zero area and none is flipped against the
 //! field: its normal does not point more than 90 degrees from the field's
-//! gradient at its centroid. Both as [`validate`](mod@crate::validate) counts zero-area and
-//! flipped faces, on the same world coordinates the mesh will have. The gradient is read only for triangles whose normal is more
-//! than [`FIELD_CHECK_DEGREES`] from one of their vertices' normals (the field's
+//! gradient at its centroid. Both are judged as [`validate`](mod@crate::validate)
+//! counts zero-area and flipped faces, on the world coordinates the mesh will
+//! have. The gradient is read only for triangles whose normal is more than
+//! [`FIELD_CHECK_DEGREES`] from one of their vertices' normals (the field's
 //! gradients where the vertices' planes were measured): a triangle that close to
 //! all three of them would need the gradient to turn by more than 30 degrees
 //! between its corners and its centroid to be flipped.
@@ -60,8 +61,7 @@ impl<'a> Facing<'a> {
             3 => {
                 let p = [0, 1, 2].map(world);
                 let n = [0, 1, 2].map(|i| corners[i].1);
-                triangle_faces(p, n, facing)
-                    && self.holds(p, n, crate::validate::face_normal(p), &also)
+                triangle_faces(p, n, facing) && self.holds(p, n, validate::face_normal(p), &also)
             }
             4 => {
                 let p = [0, 1, 2, 3].map(world);
@@ -81,9 +81,9 @@ impl<'a> Facing<'a> {
     }
 
     /// The tests past facing its edge, on triangle `p` (world units) with
-    /// vertex normals `n` and normal `cross` (unnormalised): it is not a
-    /// zero-area face ([`Facing::sized`]), passes `also`, and is not flipped against the
-    /// field.
+    /// vertex normals `n` and normal `cross` (unnormalised): it has more than
+    /// zero area ([`Facing::sized`]), passes `also`, and is not flipped against
+    /// the field.
     fn holds(
         &self,
         p: [Vec3; 3],

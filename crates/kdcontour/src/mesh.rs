@@ -256,13 +256,11 @@ impl QuadSplit {
     /// The triangles of quad `p` (vertex normals `n`) facing `facing`.
     pub fn new(p: [Vec3; 4], n: [Vec3; 4], facing: Vec3) -> Self {
         let q = p.map(|x| x.as_dvec3());
-        let facing = facing.as_dvec3();
         let mut cross = [DVec3::ZERO; 4];
         let mut faces = [false; 4];
         for (k, [a, b, c]) in Self::TRIS.into_iter().enumerate() {
             cross[k] = (q[b] - q[a]).cross(q[c] - q[a]);
-            faces[k] =
-                cross[k].dot(facing) > 0.0 && cross[k].dot((n[a] + n[b] + n[c]).as_dvec3()) >= 0.0;
+            faces[k] = normal_faces(cross[k], [n[a], n[b], n[c]], facing);
         }
         QuadSplit { cross, faces }
     }
@@ -295,7 +293,11 @@ impl QuadSplit {
 /// crossings), when that sum is not zero. A zero-area triangle faces no way.
 pub fn triangle_faces(p: [Vec3; 3], n: [Vec3; 3], facing: Vec3) -> bool {
     let p = p.map(|x| x.as_dvec3());
-    let cross = (p[1] - p[0]).cross(p[2] - p[0]);
+    normal_faces((p[1] - p[0]).cross(p[2] - p[0]), n, facing)
+}
+
+/// [`triangle_faces`] of a triangle whose (unnormalised) normal is `cross`.
+fn normal_faces(cross: DVec3, n: [Vec3; 3], facing: Vec3) -> bool {
     cross.dot(facing.as_dvec3()) > 0.0 && cross.dot((n[0] + n[1] + n[2]).as_dvec3()) >= 0.0
 }
 

@@ -74,7 +74,15 @@ pub enum Surface<'a> {
     Capped(boundary::CappedField<'a>),
 }
 
-impl Surface<'_> {
+impl<'a> Surface<'a> {
+    /// `field`, cut by the box of `capped` when there is one.
+    fn of(field: &'a dyn Field, capped: Option<&Grid>) -> Self {
+        match capped {
+            Some(g) => Surface::Capped(boundary::CappedField::new(field, g)),
+            None => Surface::Field(field),
+        }
+    }
+
     /// The surface as a field.
     pub fn field(&self) -> &dyn Field {
         match self {
@@ -182,11 +190,7 @@ impl Hermite {
         capped: Option<(Cap, Grid)>,
     ) -> Result<Self> {
         let (cap, capped) = (capped.map(|c| c.0), capped.map(|c| c.1));
-        let cut = capped.map(|g| boundary::CappedField::new(field, &g));
-        let surface: &dyn Field = match &cut {
-            Some(c) => c,
-            None => field,
-        };
+        let surface = Surface::of(field, capped.as_ref());
         let tables = CellTables::get();
         let n = grid.cells;
         let corners = grid.corners();
@@ -458,7 +462,7 @@ impl Hermite {
             &patch_qef,
             &patch_normal,
             &quads,
-            &Facing::new(surface, grid),
+            &Facing::new(surface.field(), grid),
         );
         drop(quads);
         let cell_material = dilate(&cells, &own_material, n, |c| lookup[lin(c)]);
@@ -497,10 +501,7 @@ impl Hermite {
     /// The surface this data's polygons are held to: `field`, the field it was
     /// sampled from, cut by the caps' box when capped ([`Hermite::capped`]).
     pub fn surface<'a>(&self, field: &'a dyn Field) -> Surface<'a> {
-        match &self.capped {
-            Some(g) => Surface::Capped(boundary::CappedField::new(field, g)),
-            None => Surface::Field(field),
-        }
+        Surface::of(field, self.capped.as_ref())
     }
 
     /// Whether corner `(x, y, z)` is outside.

@@ -4,8 +4,8 @@
 //! in the cell. Where the surface bends within a cell or two sheets pass through
 //! it (thin plates, a crease between three surfaces), the minimisers of the
 //! cells around an edge can sit so that the edge's dual quad folds: as the mesh
-//! splits it, a triangle does not face the way the edge crosses the surface, is a
-//! zero-area, or is flipped against the field ([`Facing::polygon`]), and the mesh
+//! splits it, a triangle does not face the way the edge crosses the surface, has
+//! zero area, or is flipped against the field ([`Facing::polygon`]), and the mesh
 //! has a flipped, zero-area or self-crossing face. The clustering's fold guard
 //! (`kdtree::fold`) keeps merged leaves from folding; this keeps the cells from
 //! it.
@@ -26,9 +26,9 @@
 //! defects`, summed over five thresholds) the first version of this (quads held
 //! to the crossing's normal, not the field at their centroids) took flipped faces
 //! at res 32 and 64 from 3,717 to 1,840 and crossing faces from 1,379 to 827.
-//! Held to the field with [`Facing`], flipped faces there went from 1,840 to 989
-//! (none left on the analytic and CSG scenes), crossing ones from 827 to 610 and
-//! zero-area ones from 10 to 0. What is left at other resolutions is where two
+//! Held to the field with [`Facing`], flipped faces there went from 1,840 to 990
+//! (none left on the analytic and CSG scenes), crossing ones from 827 to 612,
+//! overlapping ones from 40 to 32 and zero-area ones from 10 to 0. What is left at other resolutions is where two
 //! surfaces pass within a fraction of a cell (csg_mix's capsule under its box,
 //! the gyroid's shell cut by its sphere) and the neighbours' vertices were
 //! clamped onto a shared face: no step toward the mass points unfolds them.
@@ -144,8 +144,8 @@ pub(super) fn cell_vertices(
 }
 
 /// Whether the quad faces its edge's way as the mesh will split it
-/// ([`Facing::polygon`]: each triangle faces the edge, is not flipped against the
-/// field) and no triangle opposes the field's normal where the surface crosses
+/// ([`Facing::polygon`]: each triangle faces the edge, has more than zero area and
+/// is not flipped against the field) and no triangle opposes the field's normal where the surface crosses
 /// the edge.
 fn quad_faces(q: &DualQuad, vertex: &[Vec3], unit: &[Vec3], facing: &Facing) -> bool {
     let corners = q.patches.map(|i| (vertex[i as usize], unit[i as usize]));
