@@ -5,7 +5,7 @@
 //! Before measuring it prints the save's size with and without compaction
 //! ([`kdcontour::edit::compact`]), and what the other way to shorten a long log
 //! would hold: a snapshot of the samples of every 32-cell chunk the edits reach
-//! (34^3 `f32` each, as [`kdcontour::world::LevelWorld`] keeps them). Then:
+//! (34^3 `f32` each, as [`kdcontour::World`] keeps them). Then:
 //! - `save`: compact, encode and write atomically (what autosave does on the I/O
 //!   pool);
 //! - `load`: read, check and decode the file, and replay the edits onto the

@@ -19,8 +19,9 @@ use bevy::mesh::PrimitiveTopology;
 use bevy::pbr::wireframe::WireframeConfig;
 use bevy::prelude::*;
 use bevy_kdcontour::kdcontour::hermite::Hermite;
-use bevy_kdcontour::kdcontour::kdtree::{self, Partition};
 use bevy_kdcontour::kdcontour::meshers::{Mesher, Sampled};
+use bevy_kdcontour::kdcontour::pipeline::{self, Cells};
+use bevy_kdcontour::kdcontour::Partition;
 use bevy_kdcontour::kdcontour::{meshers, scenes, Grid, IndexedMesh, KdTree, Settings};
 use bevy_kdcontour::panel::bevy_egui::{egui, EguiContexts, EguiPrimaryContextPass};
 use bevy_kdcontour::panel::KdContourPanel;
@@ -191,19 +192,24 @@ fn rebuild(cmp: &mut Compare, meshes: &mut Assets<Mesh>, resample: bool) {
         };
         cmp.sample_ms = sampled.sample_ms;
         for row in &mut cmp.rows {
-            row.tree = match row.mesher {
-                Mesher::Octree => Some(kdtree::build_with(
-                    &sampled.hermite,
-                    sampled.field,
-                    Partition::Octree,
-                )),
-                Mesher::KdTree => Some(kdtree::build_with(
-                    &sampled.hermite,
-                    sampled.field,
-                    Partition::KdTree,
-                )),
-                _ => None,
+            let partition = match row.mesher {
+                Mesher::Octree => Partition::Octree,
+                Mesher::KdTree => Partition::KdTree,
+                _ => {
+                    row.tree = None;
+                    continue;
+                }
             };
+            let settings = Settings {
+                partition,
+                ..settings.clone()
+            };
+            row.tree = Some(pipeline::tree(
+                &sampled.hermite,
+                sampled.field,
+                &settings,
+                Cells::All,
+            ));
         }
         cmp.hermite = Some(sampled.hermite);
         cmp.error = None;

@@ -40,7 +40,7 @@ struct Args {
 struct Flight {
     paused: bool,
     angle: f32,
-    centre: Vec3,
+    center: Vec3,
     radius: f32,
 }
 
@@ -75,7 +75,7 @@ fn main() {
     .insert_resource(Flight {
         paused: false,
         angle: 0.6,
-        centre: Vec3::new(side * 0.5, args.chunk_res as f32, side * 0.5),
+        center: Vec3::new(side * 0.5, args.chunk_res as f32, side * 0.5),
         radius: side * 0.32,
     })
     .insert_resource(Block {
@@ -132,7 +132,7 @@ fn fly(
     if shot.screenshot.is_none() {
         flight.angle += time.delta_secs() * 0.15;
     }
-    let (a, r, c) = (flight.angle, flight.radius, flight.centre);
+    let (a, r, c) = (flight.angle, flight.radius, flight.center);
     let pos = c + Vec3::new(a.cos() * r, r * 0.9, a.sin() * r);
     let ahead = c + Vec3::new((a + 1.2).cos() * r * 0.5, 0.0, (a + 1.2).sin() * r * 0.5);
     for (mut cam, mut t) in &mut cams {

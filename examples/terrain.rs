@@ -391,7 +391,7 @@ fn toggle_levels(keys: Res<ButtonInput<KeyCode>>, mut settings: ResMut<KdContour
 }
 
 /// In screenshot mode: dig a crater, raise a mound and paint a patch where the
-/// screen centre looks, the way a user's clicks would, so the picture shows edits.
+/// screen center looks, the way a user's clicks would, so the picture shows edits.
 fn scripted_edits(
     seed: Res<Seed>,
     mut done: Local<bool>,

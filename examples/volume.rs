@@ -1,7 +1,7 @@
 //! A scanned volume as a surface: a raw voxel file or a NIfTI-1 scan (`.nii`,
 //! `.nii.gz`), or, with no file, a generated CT of the 3-D Shepp-Logan head phantom
 //! (each voxel its partial volume, as a scanner measures it; `--segmented` for
-//! the density at each voxel's centre, a staircase between voxels).
+//! the density at each voxel's center, a staircase between voxels).
 //! The iso-value slider moves the surface through the scan's values (skull,
 //! brain, ventricles); every change re-meshes the chunks in the background from
 //! the voxels already in memory (the file is read once) while the old mesh stays
@@ -59,7 +59,7 @@ struct Args {
     /// Phantom voxels per side.
     #[arg(long, default_value_t = 96)]
     phantom: u32,
-    /// Phantom voxels hold the density at their centres (inside or out, a
+    /// Phantom voxels hold the density at their centers (inside or out, a
     /// staircase between voxels), not the partial volumes a scanner measures.
     #[arg(long)]
     segmented: bool,
@@ -92,7 +92,7 @@ fn load(args: &Args) -> Result<(SampledVolume, String), String> {
             return Err(format!("--phantom must be 8 to 256, got {}", args.phantom));
         }
         let (mut v, kind) = if args.segmented {
-            (phantom(args.phantom), "centre samples")
+            (phantom(args.phantom), "center samples")
         } else {
             (phantom_scanned(args.phantom), "partial volumes")
         };
@@ -212,7 +212,7 @@ fn setup(
     let entity = commands
         .spawn((
             KdVolume::new(field_at(&scan, scan.iso), chunks, res, cell).with_material(material),
-            // Centred at the origin, two units across.
+            // Centerd at the origin, two units across.
             Transform::from_scale(Vec3::splat(scale)).with_translation(-extent * 0.5 * scale),
         ))
         .id();

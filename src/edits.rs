@@ -54,8 +54,8 @@ pub(crate) fn apply_edits(
         let rebuilt = match &msg.regions {
             Some(regions) => {
                 let mut all: Vec<ChunkKey> = Vec::new();
-                for &(centre, radius) in regions {
-                    all.extend(state.rebuild_near(centre, radius));
+                for &(center, radius) in regions {
+                    all.extend(state.rebuild_near(center, radius));
                 }
                 all.sort_by_key(|c| c.order());
                 all.dedup();
@@ -80,9 +80,9 @@ pub(crate) fn apply_edits(
                 continue;
             }
         };
-        let (centre, reach) = field.last_reach().expect("an edit was just added");
+        let (center, reach) = field.last_reach().expect("an edit was just added");
         state.set_field(field);
-        let rebuilt = state.rebuild_near(centre, reach);
+        let rebuilt = state.rebuild_near(center, reach);
         applied.write(EditApplied {
             volume: edit.volume,
             rebuilt,

@@ -3,7 +3,7 @@
 //! streaming subsystem).
 //!
 //! ## The layout
-//! The core's [`LevelWorld`] holds an octree of chunks over a region of top-level
+//! The core's [`World`] holds an octree of chunks over a region of top-level
 //! chunks (level `T`, the smallest whose chunks are at least `view_cells` wide):
 //! along x and z the 3 x 3 top chunks around the one that holds the camera, so
 //! the terrain reaches at least `view_cells` out; along y the top chunks that
@@ -43,7 +43,7 @@ use bevy::prelude::*;
 use bevy::tasks::{futures::check_ready, AsyncComputeTaskPool};
 use kdcontour::world::layout::MAX_LEVEL;
 use kdcontour::world::{ChunkKey, ChunkMap, ChunkSet, Layout, PreparedLayout};
-use kdcontour::{LevelWorld, Settings};
+use kdcontour::{Settings, World};
 
 /// Level-0 chunk rows `min_y..=max_y`.
 type Rows = (i32, i32);
@@ -56,7 +56,7 @@ pub(crate) fn new_world(
     (min_y, max_y): Rows,
     threshold: f32,
     settings: Settings,
-) -> kdcontour::Result<LevelWorld> {
+) -> kdcontour::Result<World> {
     let bad = |reason: String| {
         Err(kdcontour::Error::InvalidSetting {
             name: "extent",
@@ -65,6 +65,12 @@ pub(crate) fn new_world(
     };
     if min_y > max_y {
         return bad(format!("min_y {min_y} must be <= max_y {max_y}"));
+    }
+    if !vol.chunk_res.is_multiple_of(2) {
+        return bad(format!(
+            "chunk_res {} must be even: a chunk one level coarser halves it",
+            vol.chunk_res
+        ));
     }
     if view_cells < vol.chunk_res || level0_cells > view_cells {
         return bad(format!(
@@ -80,7 +86,7 @@ pub(crate) fn new_world(
         ));
     }
     let placeholder = Layout::uniform(IVec3::ZERO, IVec3::ONE, 0)?;
-    LevelWorld::new(
+    World::new(
         Vec3::ZERO,
         vol.cell_size,
         vol.chunk_res,
@@ -174,9 +180,7 @@ pub(crate) fn stream(
         }
         return;
     }
-    let Some(world) = state.world().levels() else {
-        return;
-    };
+    let world = state.world();
     let cam = world.to_chunk_units(camera);
     let key = (
         cam.floor().as_ivec3(),
@@ -276,10 +280,7 @@ impl VolumeState {
                 None => touched.extend(self.world().seam_owners_touching(k)),
             }
         }
-        let world = self
-            .world_mut()
-            .levels_mut()
-            .expect("horizon volumes have a level world");
+        let world = self.world_mut();
         let stale = world.set_prepared(prepared)?;
         // A chunk the layout keeps but the view no longer does loses its tree,
         // so no seam is cut against it.
@@ -376,9 +377,7 @@ impl VolumeState {
         let Some(t) = self.transition.take() else {
             return Vec::new();
         };
-        if let Some(world) = self.world().levels() {
-            self.horizon_shown = Some((world.layout().clone(), t.keep));
-        }
+        self.horizon_shown = Some((self.world().layout().clone(), t.keep));
         for (_, e) in t.retired {
             commands.entity(e).despawn();
         }

@@ -2,7 +2,7 @@
 //!
 //! A Bevy 0.19 plugin that meshes signed-distance, CSG and noise fields through the
 //! discrete k-d tree of [`kdcontour`], in chunks: each chunk's tree is built by the
-//! plugin's [`ChunkWorkers`](workers::ChunkWorkers) (one thread per core), kept, and
+//! plugin's chunk worker threads (one per core), kept, and
 //! re-cut at a new error threshold when the [`LodCamera`] moves (no re-sampling);
 //! edits ([`ApplyEdit`]) rebuild only the chunks they reach; seams between chunks
 //! at different thresholds are contoured across the chunk trees, so there are no
@@ -36,16 +36,16 @@
 //!
 //! | module | plugin | job |
 //! |---|---|---|
-//! | [`settings`] | [`SettingsPlugin`] | the [`KdContourSettings`] resource |
-//! | [`messages`] | [`MessagesPlugin`] | registers every message |
-//! | [`stats`] | [`StatsPlugin`] | [`KdContourStats`]; the main-thread clock |
-//! | [`volume`] | [`VolumePlugin`] | [`KdVolume`], [`KdChunk`]; a [`VolumeState`] per volume; the system sets |
-//! | [`edits`] | [`EditsPlugin`] | [`ApplyEdit`], [`ReplaceField`] |
-//! | [`streaming`] | [`StreamingPlugin`] | loads and drops chunks around the camera; lays horizon volumes out in chunk levels ([`horizon`]) |
-//! | [`lod`] | [`LodPlugin`] | thresholds from the camera |
-//! | [`tasks`] | [`TasksPlugin`] | builds and extractions on the task pool |
-//! | [`upload`] | [`UploadPlugin`] | meshes onto the chunk entities |
-//! | [`persist`] | [`PersistPlugin`] | saves and loads the edits of [`KdSave`] volumes |
+//! | `settings` | [`SettingsPlugin`] | the [`KdContourSettings`] resource |
+//! | `messages` | [`MessagesPlugin`] | registers every message |
+//! | `stats` | [`StatsPlugin`] | [`KdContourStats`]; the main-thread clock |
+//! | `volume` | [`VolumePlugin`] | [`KdVolume`], [`KdChunk`]; a [`VolumeState`] per volume; the system sets |
+//! | `edits` | [`EditsPlugin`] | [`ApplyEdit`], [`ReplaceField`] |
+//! | `streaming` | [`StreamingPlugin`] | loads and drops chunks around the camera; lays horizon volumes out in chunk levels (`horizon`) |
+//! | `lod` | [`LodPlugin`] | thresholds from the camera |
+//! | `tasks` | [`TasksPlugin`] | builds and extractions on the task pool |
+//! | `upload` | [`UploadPlugin`] | meshes onto the chunk entities |
+//! | `persist` | [`PersistPlugin`] | saves and loads the edits of [`KdSave`] volumes |
 //! | `debug` (feature `debug`) | `DebugPlugin` | colours chunks by LOD band |
 //! | `colliders` (feature `avian`) | `CollidersPlugin` | avian3d trimesh colliders near the camera and `ColliderAnchor`s, built in the meshing tasks |
 //!
@@ -53,8 +53,9 @@
 //! is for apps that render and is not in the group): the field's materials per
 //! vertex, textured by triplanar projection.
 //!
-//! [`chunks`] is the chunk world behind a volume (one level, or levels);
-//! [`headless`] runs it with no renderer; `panel` (feature `egui`) is the egui
+//! A volume's chunks live in one [`kdcontour::World`] (one level for bounded and
+//! streaming volumes, several for the horizon); [`headless`] runs the plugin with
+//! no renderer; `panel` (feature `egui`) is the egui
 //! panel the examples show.
 //!
 //! ## Frame by frame
@@ -80,31 +81,29 @@ pub use avian3d;
 pub use bevy_inspector_egui;
 pub use kdcontour;
 
-pub mod chunks;
 #[cfg(feature = "avian")]
 pub mod colliders;
 #[cfg(feature = "debug")]
 pub mod debug;
-pub mod edits;
+mod edits;
 pub mod headless;
-pub mod horizon;
-pub mod lod;
+mod horizon;
+mod lod;
 pub mod material;
-pub mod messages;
+mod messages;
 #[cfg(feature = "egui")]
 pub mod panel;
 pub mod persist;
-pub mod plugins;
-pub mod settings;
-pub mod state;
-pub mod stats;
-pub mod streaming;
-pub mod tasks;
-pub mod upload;
-pub mod volume;
-pub mod workers;
+mod plugins;
+mod settings;
+mod state;
+mod stats;
+mod streaming;
+mod tasks;
+mod upload;
+mod volume;
+mod workers;
 
-pub use chunks::VolumeWorld;
 #[cfg(feature = "avian")]
 pub use colliders::{ColliderAnchor, ColliderSettings, CollidersPlugin};
 #[cfg(feature = "debug")]

@@ -18,7 +18,7 @@ pub struct ApplyEdit {
 }
 
 /// Replace a volume's field (the edit log is replayed on top of it). With
-/// `regions`, only chunks within those spheres `(centre, radius)`, in the volume's
+/// `regions`, only chunks within those spheres `(center, radius)`, in the volume's
 /// local space, are rebuilt: the caller promises the new field equals the old one
 /// outside them (a CSG editor passes the old and new bounds of the shape it
 /// changed). With `None` every chunk is rebuilt.

@@ -4,7 +4,6 @@
 //! and unloading a chunk is one insert and one remove. Chunks are addressed by
 //! [`ChunkKey`] (level 0 in a one-level world).
 
-use crate::chunks::VolumeWorld;
 use crate::horizon::{HorizonKeep, NextLayout};
 use crate::tasks::{BuildOut, ExtractOut};
 use crate::volume::{ChunkStatus, KdChunk};
@@ -12,7 +11,7 @@ use bevy::prelude::*;
 use bevy::tasks::Task;
 use kdcontour::edit::{Brush, EditedField};
 use kdcontour::world::{ChunkKey, ChunkMap, ChunkSet, Layout};
-use kdcontour::{Field, IndexedMesh};
+use kdcontour::{Field, IndexedMesh, World};
 use std::sync::Arc;
 
 /// A chunk mesh ready to show: made into a Bevy mesh on the task thread, so
@@ -113,7 +112,7 @@ pub(crate) struct Transition {
 /// The meshing state of one volume (added by the plugin).
 #[derive(Component)]
 pub struct VolumeState {
-    pub(crate) world: VolumeWorld,
+    pub(crate) world: World,
     field: EditedField,
     /// The volume's field and iso the edits are layered on.
     pub(crate) base: (Arc<dyn Field>, f32),
@@ -143,7 +142,7 @@ pub struct VolumeState {
 
 impl VolumeState {
     /// A state with no chunk loaded.
-    pub(crate) fn new(world: VolumeWorld, field: EditedField, base: (Arc<dyn Field>, f32)) -> Self {
+    pub(crate) fn new(world: World, field: EditedField, base: (Arc<dyn Field>, f32)) -> Self {
         VolumeState {
             world,
             field,
@@ -168,12 +167,12 @@ impl VolumeState {
     }
 
     /// The chunk world (trees and thresholds).
-    pub fn world(&self) -> &VolumeWorld {
+    pub fn world(&self) -> &World {
         &self.world
     }
 
     /// The chunk world, to change.
-    pub(crate) fn world_mut(&mut self) -> &mut VolumeWorld {
+    pub(crate) fn world_mut(&mut self) -> &mut World {
         &mut self.world
     }
 
@@ -284,8 +283,8 @@ impl VolumeState {
         }
     }
 
-    /// Makes `c` a member chunk of a one-level world with an entity, queued for
-    /// its first build.
+    /// Makes level-0 chunk `c` a member of a streaming (open) world with an
+    /// entity, queued for its first build.
     pub(crate) fn load(
         &mut self,
         commands: &mut Commands,
@@ -293,10 +292,7 @@ impl VolumeState {
         c: IVec3,
         threshold: f32,
     ) {
-        let Some(world) = self.world.flat_mut() else {
-            return;
-        };
-        match world.add_chunk(c) {
+        match self.world.add_chunk(c) {
             Ok(true) => {}
             Ok(false) => return,
             Err(e) => {
@@ -304,7 +300,7 @@ impl VolumeState {
                 return;
             }
         }
-        self.add_slot(commands, volume, crate::chunks::flat_key(c), threshold);
+        self.add_slot(commands, volume, ChunkKey::new(0, c), threshold);
     }
 
     /// Gives chunk `k` (already in the world) an entity and a slot, queued for
@@ -351,16 +347,14 @@ impl VolumeState {
         self.mark_build(&c);
     }
 
-    /// Drops chunk `c` of a one-level world: its tree, its tasks (dropping a
-    /// task cancels it), its entity; the seams its lower neighbours own are
-    /// re-extracted without it.
-    pub(crate) fn unload(&mut self, commands: &mut Commands, c: IVec3) {
-        let k = crate::chunks::flat_key(c);
+    /// Drops chunk `k` of a streaming (open) world: its tree, its tasks
+    /// (dropping a task cancels it), its entity; the seams its lower neighbours
+    /// own are re-extracted without it.
+    pub(crate) fn unload(&mut self, commands: &mut Commands, k: ChunkKey) {
         let owners = self.world.seam_owners_touching(&k);
-        let Some(world) = self.world.flat_mut() else {
+        if !self.world.remove_chunk(&k) {
             return;
-        };
-        world.remove_chunk(c);
+        }
         if let Some(slot) = self.slots.remove(&k) {
             commands.entity(slot.entity).despawn();
         }
@@ -373,10 +367,10 @@ impl VolumeState {
     }
 
     /// Marks every loaded chunk whose samples an edit within `reach` of
-    /// `centre` changes (at every level that covers it); returns them.
-    pub(crate) fn rebuild_near(&mut self, centre: Vec3, reach: f32) -> Vec<ChunkKey> {
+    /// `center` changes (at every level that covers it); returns them.
+    pub(crate) fn rebuild_near(&mut self, center: Vec3, reach: f32) -> Vec<ChunkKey> {
         let mut rebuilt = Vec::new();
-        for c in self.world.edited(centre, reach) {
+        for c in self.world.edited(center, reach) {
             if self.slots.contains_key(&c) {
                 self.mark_build(&c);
                 rebuilt.push(c);
@@ -387,7 +381,8 @@ impl VolumeState {
 
     /// Marks every loaded chunk for a rebuild; returns them.
     pub(crate) fn rebuild_all(&mut self) -> Vec<ChunkKey> {
-        self.world.forget_samples();
+        let every = self.world.chunks();
+        self.world.forget_samples(&every);
         let mut all: Vec<ChunkKey> = self.slots.keys().copied().collect();
         all.sort_by_key(|c| c.order());
         for c in &all {

@@ -72,9 +72,7 @@ fn stream_chunks(
             }
             VolumeExtent::Bounded { .. } => continue,
         };
-        let Some(world) = state.world().flat() else {
-            continue;
-        };
+        let world = state.world();
         let key = (
             world.chunk_at(local),
             view_distance.to_bits() as u64,
@@ -91,7 +89,7 @@ fn stream_chunks(
         // Drop what is out of range (with one chunk side of slack) first.
         for k in state.world().chunks() {
             if !rows.contains(&k.coord.y) || state.distance(local, &k) > view_distance + side {
-                state.unload(&mut commands, k.coord);
+                state.unload(&mut commands, k);
             }
         }
         for c in near {

@@ -6,7 +6,6 @@
 //! [`KdContourSystems::Poll`]): a result from an older field or threshold is
 //! dropped, and a panic inside a build is reported as [`ChunkFailed`].
 
-use crate::chunks::ChunkJob;
 use crate::messages::ChunkFailed;
 use crate::settings::KdContourSettings;
 use crate::state::{ReadyMesh, VolumeState};
@@ -16,14 +15,13 @@ use crate::workers::ChunkWorkers;
 use crate::KdContourSystems;
 use bevy::prelude::*;
 use bevy::tasks::{futures::check_ready, AsyncComputeTaskPool};
-use kdcontour::world::BuiltChunk;
-use kdcontour::world::ChunkKey;
+use kdcontour::world::{BuiltChunk, ChunkBuild, ChunkKey};
 use kdcontour::IndexedMesh;
 
 /// A finished build.
 pub(crate) struct BuildOut {
     generation: u64,
-    job: ChunkJob,
+    job: ChunkBuild,
     result: Result<BuiltChunk, String>,
     ms: f64,
 }
@@ -109,7 +107,7 @@ impl VolumeState {
                 // level: a far chunk's coarse faces bend at their own scale
                 // everywhere, and splitting there would draw whole faces in
                 // one material (angular patches on distant hills).
-                let cell = self.world().cell_size();
+                let cell = self.world().cell_size;
                 let slot = self.slots.get_mut(&c).expect("listed");
                 slot.need_extract = false;
                 let Some(snapshot) = snapshot else {
@@ -159,10 +157,11 @@ impl VolumeState {
                 let generation = slot.build_gen;
                 slot.building = Some(workers.run(move || {
                     let t = std::time::Instant::now();
-                    let result =
-                        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job.run(&field)))
-                            .map_err(|p| format!("the field panicked: {}", panic_message(&*p)))
-                            .and_then(|r| r.map_err(|e| e.to_string()));
+                    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                        job.build(&field)
+                    }))
+                    .map_err(|p| format!("the field panicked: {}", panic_message(&*p)))
+                    .and_then(|r| r.map_err(|e| e.to_string()));
                     BuildOut {
                         generation,
                         job,
@@ -271,7 +270,7 @@ fn poll_tasks(
         built.sort_by_key(|(c, _, _)| c.order());
         for (c, job, result) in built {
             match result {
-                Ok(built) => state.world_mut().insert_built(&c, &job, built),
+                Ok(built) => state.world_mut().insert_built(&job, built),
                 Err(error) => {
                     error!(
                         "chunk {} (level {}) of volume {entity}: {error}",

@@ -3,7 +3,6 @@
 //! [`VolumeState`] and rebuilds a volume whose field or iso level changed. It
 //! also orders [`KdContourSystems`], the sets every other subsystem runs in.
 
-use crate::chunks::VolumeWorld;
 use crate::material::TerrainMaterial;
 use crate::settings::KdContourSettings;
 use crate::state::VolumeState;
@@ -12,7 +11,7 @@ use crate::KdContourSystems;
 use bevy::prelude::*;
 use bevy::transform::TransformSystems;
 use kdcontour::edit::EditedField;
-use kdcontour::{ChunkWorld, Field};
+use kdcontour::{Field, World};
 use std::sync::Arc;
 
 /// A field shared with meshing tasks.
@@ -354,39 +353,41 @@ pub(crate) fn init_volumes(
             ..Default::default()
         };
         let world = match vol.extent {
-            VolumeExtent::Bounded { chunks } => ChunkWorld::new(
+            VolumeExtent::Bounded { chunks } => World::bounded(
                 Vec3::ZERO,
                 vol.cell_size,
                 vol.chunk_res,
                 chunks,
                 settings.default_threshold,
                 core,
-            )
-            .map(VolumeWorld::Flat),
+            ),
             VolumeExtent::Streaming {
                 view_distance,
                 min_y,
                 max_y,
-            } => if !(view_distance.is_finite() && view_distance >= 0.0) || min_y > max_y {
-                Err(kdcontour::Error::InvalidSetting {
-                    name: "extent",
-                    reason: format!(
-                        "view_distance {view_distance} must be finite and >= 0, \
+            } => {
+                if !(view_distance.is_finite() && view_distance >= 0.0) || min_y > max_y {
+                    Err(kdcontour::Error::InvalidSetting {
+                        name: "extent",
+                        reason: format!(
+                            "view_distance {view_distance} must be finite and >= 0, \
                              and min_y {min_y} <= max_y {max_y}"
-                    ),
-                })
-            } else if let Err(e) = streaming_budget(vol, view_distance, max_y - min_y + 1, &core) {
-                Err(e)
-            } else {
-                ChunkWorld::unbounded(
-                    Vec3::ZERO,
-                    vol.cell_size,
-                    vol.chunk_res,
-                    settings.default_threshold,
-                    core,
-                )
+                        ),
+                    })
+                } else if let Err(e) =
+                    streaming_budget(vol, view_distance, max_y - min_y + 1, &core)
+                {
+                    Err(e)
+                } else {
+                    World::unbounded(
+                        Vec3::ZERO,
+                        vol.cell_size,
+                        vol.chunk_res,
+                        settings.default_threshold,
+                        core,
+                    )
+                }
             }
-            .map(VolumeWorld::Flat),
             VolumeExtent::Horizon {
                 view_cells,
                 level0_cells,
@@ -398,8 +399,7 @@ pub(crate) fn init_volumes(
                 (min_y, max_y),
                 settings.default_threshold,
                 core,
-            )
-            .map(VolumeWorld::Levels),
+            ),
         };
         let world = match world {
             Ok(w) => w,
@@ -415,10 +415,7 @@ pub(crate) fn init_volumes(
         // streaming or horizon world is empty until streaming runs.)
         if let VolumeExtent::Bounded { .. } = vol.extent {
             for c in state.world().chunks() {
-                if let Some(w) = state.world_mut().flat_mut() {
-                    w.remove_chunk(c.coord);
-                }
-                state.load(&mut commands, entity, c.coord, settings.default_threshold);
+                state.add_slot(&mut commands, entity, c, settings.default_threshold);
             }
         }
         commands.entity(entity).insert(state);

@@ -11,7 +11,7 @@ use bevy_kdcontour::ColliderAnchor;
 /// Capsule radius and the length of its middle (1.8 units tall in all).
 const RADIUS: f32 = 0.4;
 const LENGTH: f32 = 1.0;
-/// Eyes above the capsule's centre.
+/// Eyes above the capsule's center.
 const EYES: f32 = 0.7;
 /// Walking and running speed (units a second), and the jump's starting speed.
 const WALK: f32 = 5.0;

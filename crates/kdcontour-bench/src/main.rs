@@ -224,7 +224,7 @@ fn fidget_tree(scene: &str) -> Option<Tree> {
             Some(((x - c[0]).square() + (y - c[1]).square() + (z - c[2]).square()).sqrt() - 0.7)
         }
         "disk_pole" => {
-            // Capped cylinders along x: (axial half-length, radius, centre x).
+            // Capped cylinders along x: (axial half-length, radius, center x).
             let cyl = |h: f32, r: f32, cx: f32| -> Tree {
                 let (x, y, z) = Tree::axes();
                 let radial = (y.square() + z.square()).sqrt() - r;

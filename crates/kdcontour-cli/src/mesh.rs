@@ -90,10 +90,10 @@ pub fn run(args: Mesh) -> Result<(), String> {
         if let Some(tree) = tree {
             say!(
                 "tree       {} nodes, {} components, {} bytes retained ({:.1} per node)",
-                tree.nodes.len(),
-                tree.comps.len(),
+                tree.node_count(),
+                tree.component_count(),
                 tree.retained_bytes(),
-                tree.retained_bytes() as f64 / tree.nodes.len().max(1) as f64
+                tree.retained_bytes() as f64 / tree.node_count().max(1) as f64
             );
         }
         if let Some(p) = out {
@@ -134,8 +134,8 @@ fn make(
     let mut mesh = IndexedMesh::default();
     settings.run(|| tree.extract(threshold, &mut mesh))?;
     let times = Timings {
-        sample_ms: tree.stats.sample_ms,
-        build_ms: tree.stats.build_ms,
+        sample_ms: tree.stats().sample_ms,
+        build_ms: tree.stats().build_ms,
         contour_ms: t.elapsed().as_secs_f64() * 1e3,
     };
     Ok((mesh, times, Some(tree)))

@@ -14,7 +14,7 @@ pub struct Phantom {
     #[arg(long)]
     out: PathBuf,
     /// Each voxel holds its partial volume (the density averaged over it, as a
-    /// scanner measures it) instead of the density at its centre: the skull is
+    /// scanner measures it) instead of the density at its center: the skull is
     /// smooth between voxels, at iso 1.3 (whole from about 96 voxels).
     #[arg(long)]
     scanned: bool,

@@ -1,13 +1,16 @@
 //! `kdcontour world`: a scene as a grid of chunks, each at its own threshold,
 //! written as one welded mesh so the seams can be checked; with `--levels`, chunks
-//! at several levels of detail ([`levels`]).
+//! at several levels of detail ([`levels`] makes the layout). Either way it is one
+//! [`kdcontour::World`], built, cut and welded the same way.
 
 mod levels;
 
 use crate::args::{settings, Memory, SceneInput};
 use crate::output::print_checks;
+use glam::{UVec3, Vec3};
 use kdcontour::io::input::{parse_uvec3, parse_vec3};
-use kdcontour::{validate, ChunkWorld, Field, IndexedMesh, Lod, MeshReport};
+use kdcontour::world::ChunkKey;
+use kdcontour::{validate, IndexedMesh, Lod};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -99,122 +102,180 @@ fn random_thresholds(n: usize, seed: u64) -> Vec<f32> {
 
 /// The world's cell size: `chunks * chunk_res` cells span [-1, 1] along the
 /// longest side.
-fn cell_size(chunks: glam::UVec3, chunk_res: u32) -> f32 {
+fn cell_size(chunks: UVec3, chunk_res: u32) -> f32 {
     2.0 / (chunks.max_element().max(1) * chunk_res.max(1)) as f32
 }
 
-/// Welds the world with `extract`, timed (ms), and checks the mesh against
-/// `field` (errors in cells of `cell`).
-fn weld(
-    extract: impl FnOnce() -> IndexedMesh,
-    field: &dyn Field,
-    cell: f32,
-) -> (IndexedMesh, f64, MeshReport) {
-    let t = Instant::now();
-    let mesh = extract();
-    let ms = t.elapsed().as_secs_f64() * 1e3;
-    let r = validate(&mesh, Some((field, cell)));
-    (mesh, ms, r)
+/// What one level's chunks hold and cost.
+#[derive(Default)]
+struct LevelStats {
+    level: u32,
+    chunks: usize,
+    retained_bytes: usize,
+    build_ms: f64,
+    /// Triangles of the level's chunk meshes (interiors and owned seams).
+    triangles: usize,
+}
+
+impl LevelStats {
+    fn json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "level": self.level, "chunks": self.chunks, "retained_bytes": self.retained_bytes,
+            "build_ms": self.build_ms, "triangles": self.triangles,
+        })
+    }
 }
 
 pub fn run(args: World) -> Result<(), String> {
     crate::args::check_out(args.out.as_deref())?;
     let thresholds = Thresholds::parse(args.thresholds.as_deref(), args.camera)?;
-    if let Some(spec) = &args.levels {
-        return levels::run(&args, spec, thresholds);
-    }
-    if let Thresholds::Default = thresholds {
+    let levels = args
+        .levels
+        .as_deref()
+        .map(levels::Levels::parse)
+        .transpose()?;
+    if levels.is_none() && matches!(thresholds, Thresholds::Default) {
         return Err("give --thresholds random:SEED or --camera X,Y,Z".into());
     }
-    let World {
-        input,
-        chunks,
-        chunk_res,
-        out,
-        threads: n_threads,
-        json,
-        memory,
-        ..
-    } = args;
-    let chunks = chunks.unwrap_or(glam::UVec3::splat(3));
-    let loaded = input.load()?;
-    let cell = cell_size(chunks, chunk_res);
-    let mut world = ChunkWorld::new(
-        glam::Vec3::splat(-1.0),
-        cell,
-        chunk_res,
-        chunks,
-        0.01,
-        settings(n_threads, memory.budget),
-    )
+    let default_chunks = if levels.is_some() { 16 } else { 3 };
+    let chunks = args.chunks.unwrap_or(UVec3::splat(default_chunks));
+    let top = match levels {
+        Some(_) => levels::top_level(chunks)?,
+        None => 0,
+    };
+    let loaded = args.input.load()?;
+    if levels.is_some() && loaded.bounds.is_some() {
+        return Err("world meshes [-1, 1]^3: use --scene or --scene-file".into());
+    }
+    let settings = settings(args.threads, args.memory.budget);
+    let cell = cell_size(chunks, args.chunk_res);
+    let origin = Vec3::splat(-1.0);
+    let mut world = match levels {
+        None => kdcontour::World::bounded(origin, cell, args.chunk_res, chunks, 0.01, settings),
+        Some(l) => levels::world(l, origin, cell, args.chunk_res, chunks, top, settings),
+    }
     .map_err(|e| e.to_string())?;
-    let t0 = Instant::now();
-    world
-        .build_all(&*loaded.field)
-        .map_err(|e| format!("{}: {e}", loaded.name))?;
-    let build_ms = t0.elapsed().as_secs_f64() * 1e3;
+
+    // Build level by level to time each.
+    let keys = world.chunks();
+    let mut stats: Vec<LevelStats> = (0..=top)
+        .map(|level| LevelStats {
+            level,
+            ..Default::default()
+        })
+        .collect();
+    for s in &mut stats {
+        let mine: Vec<ChunkKey> = keys
+            .iter()
+            .filter(|k| k.level == s.level)
+            .copied()
+            .collect();
+        let t = Instant::now();
+        world
+            .build(&mine, &*loaded.field)
+            .map_err(|e| format!("{}: {e}", loaded.name))?;
+        s.build_ms = t.elapsed().as_secs_f64() * 1e3;
+        s.chunks = mine.len();
+        s.retained_bytes = mine
+            .iter()
+            .filter_map(|k| world.tree(k))
+            .map(|t| t.retained_bytes())
+            .sum();
+    }
+    let build_ms: f64 = stats.iter().map(|s| s.build_ms).sum();
+
     match thresholds {
         Thresholds::Random(seed) => {
-            let coords = world.coords();
-            for (c, e) in coords.iter().zip(random_thresholds(coords.len(), seed)) {
-                world.set_threshold(*c, e);
+            for (k, e) in keys.iter().zip(random_thresholds(keys.len(), seed)) {
+                world.set_threshold(k, e);
             }
         }
         Thresholds::Camera(cam) => {
             world.apply_lod(cam, &Lod::default());
         }
-        Thresholds::Default => unreachable!("checked above"),
+        Thresholds::Default => {}
     }
-    let (mesh, contour_ms, r) = weld(|| world.extract_all(), &*loaded.field, cell);
+    let t = Instant::now();
+    let mesh = world.extract_all();
+    let contour_ms = t.elapsed().as_secs_f64() * 1e3;
+    let r = validate(&mesh, Some((&*loaded.field, cell)));
     let mut seam_triangles = 0;
     let mut m = IndexedMesh::default();
-    for c in world.coords() {
-        world.extract_seams(c, &mut m);
+    for k in &keys {
+        world.extract_seams(k, &mut m);
         seam_triangles += m.triangle_count();
+        stats[k.level as usize].triangles += m.triangle_count();
+        world.extract_interior(k, &mut m);
+        stats[k.level as usize].triangles += m.triangle_count();
     }
-    if let Some(p) = &out {
+    if let Some(p) = &args.out {
         mesh.save(p).map_err(|e| e.to_string())?;
     }
-    let ts: Vec<f32> = world
-        .coords()
-        .into_iter()
-        .map(|c| world.threshold(c))
-        .collect();
-    if json {
+    let retained = world.retained_bytes();
+    let ts: Vec<f32> = keys.iter().map(|k| world.threshold(k)).collect();
+    if args.json {
         say!("{}", {
             let mut line = serde_json::json!({
-                "scene": loaded.name, "chunks": chunks.to_array(), "chunk_res": chunk_res,
+                "scene": loaded.name, "chunks": chunks.to_array(), "chunk_res": args.chunk_res,
+                "top_level": top, "chunk_count": keys.len(),
+                "per_level": stats.iter().map(LevelStats::json).collect::<Vec<_>>(),
                 "triangles": r.triangles, "vertices": r.vertices, "seam_triangles": seam_triangles,
                 "watertight": r.watertight, "manifold": r.manifold, "oriented": r.oriented,
                 "euler": r.euler, "max_error": r.max_error, "mean_error": r.mean_error,
                 "build_ms": build_ms, "contour_ms": contour_ms,
-                "retained_bytes": world.retained_bytes(), "thresholds": ts,
+                "retained_bytes": retained, "thresholds": ts,
             });
+            if let Some(spec) = &args.levels {
+                line["levels"] = spec.as_str().into();
+            }
             crate::output::with_geometry(&mut line, &r);
             line
         });
-    } else {
-        say!(
-            "world      {} in {}x{}x{} chunks of {chunk_res}^3 cells",
+        return Ok(());
+    }
+    match &args.levels {
+        None => say!(
+            "world      {} in {}x{}x{} chunks of {}^3 cells",
             loaded.name,
             chunks.x,
             chunks.y,
-            chunks.z
-        );
-        say!(
-            "mesh       {} triangles ({seam_triangles} in seams), {} vertices, Euler {}",
-            r.triangles,
-            r.vertices,
-            r.euler
-        );
-        print_checks(&r);
-        say!(
-            "time       build {build_ms:.1} ms, contour {contour_ms:.1} ms; {} bytes retained",
-            world.retained_bytes()
-        );
-        if let Some(p) = out {
-            say!("wrote      {}", p.display());
+            chunks.z,
+            args.chunk_res
+        ),
+        Some(spec) => {
+            say!(
+                "world      {} in {}x{}x{} level-0 chunks of {}^3 cells, levels {spec}: {} chunks",
+                loaded.name,
+                chunks.x,
+                chunks.y,
+                chunks.z,
+                args.chunk_res,
+                keys.len()
+            );
+            for s in &stats {
+                say!(
+                    "level {}    {} chunks, {} triangles, build {:.1} ms, {} bytes retained",
+                    s.level,
+                    s.chunks,
+                    s.triangles,
+                    s.build_ms,
+                    s.retained_bytes
+                );
+            }
         }
+    }
+    say!(
+        "mesh       {} triangles ({seam_triangles} in seams), {} vertices, Euler {}",
+        r.triangles,
+        r.vertices,
+        r.euler
+    );
+    print_checks(&r);
+    say!(
+        "time       build {build_ms:.1} ms, contour {contour_ms:.1} ms; {retained} bytes retained"
+    );
+    if let Some(p) = &args.out {
+        say!("wrote      {}", p.display());
     }
     Ok(())
 }

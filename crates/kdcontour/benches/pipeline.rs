@@ -4,7 +4,8 @@
 //! `cargo bench -p kdcontour --bench pipeline`
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
-use kdcontour::{hermite, kdtree, scenes, Grid, IndexedMesh, KdTree, Settings};
+use kdcontour::pipeline::{self, Cells};
+use kdcontour::{hermite, scenes, Grid, IndexedMesh, KdTree, Settings};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -27,17 +28,13 @@ fn stages(c: &mut Criterion, scene: &str, res: u32, threshold: f32) {
     for threads in [1, 2] {
         let p = pool(threads);
         g.bench_function(BenchmarkId::new("sample", threads), |b| {
-            b.iter(|| {
-                p.install(|| {
-                    black_box(hermite::Hermite::from_field(field, &grid, &settings).unwrap())
-                })
-            })
+            b.iter(|| p.install(|| black_box(pipeline::hermite(field, &grid, &settings).unwrap())))
         });
-        let h = p.install(|| hermite::Hermite::from_field(field, &grid, &settings).unwrap());
+        let h = p.install(|| pipeline::hermite(field, &grid, &settings).unwrap());
         g.bench_function(BenchmarkId::new("build", threads), |b| {
-            b.iter(|| p.install(|| black_box(kdtree::build(&h, field))))
+            b.iter(|| p.install(|| black_box(pipeline::tree(&h, field, &settings, Cells::All))))
         });
-        let tree = kdtree::build(&h, field);
+        let tree = pipeline::tree(&h, field, &settings, Cells::All);
         let mut mesh = IndexedMesh::default();
         g.bench_function(BenchmarkId::new("contour", threads), |b| {
             b.iter(|| tree.extract(black_box(threshold), &mut mesh))
@@ -79,7 +76,7 @@ fn terrain_chunk(c: &mut Criterion) {
     tree.extract(0.01, &mut mesh);
     println!(
         "terrain chunk: {} active cells, {} triangles at 0.01, {} bytes retained",
-        tree.stats.active_cells,
+        tree.stats().active_cells,
         mesh.triangle_count(),
         tree.retained_bytes()
     );
@@ -112,7 +109,8 @@ fn terrain_chunk(c: &mut Criterion) {
 fn edit_latency(c: &mut Criterion) {
     use kdcontour::edit::{Brush, BrushOp, EditedField};
     use kdcontour::field::terrain::{Heightfield, HeightfieldParams};
-    use kdcontour::ChunkWorld;
+    use kdcontour::world::ChunkKey;
+    use kdcontour::World;
     use std::sync::Arc;
     let base: Arc<dyn kdcontour::Field> = Arc::new(Heightfield::new(HeightfieldParams {
         seed: 3,
@@ -125,7 +123,7 @@ fn edit_latency(c: &mut Criterion) {
         threads: 1,
         ..Default::default()
     };
-    let mut world = ChunkWorld::new(
+    let mut world = World::bounded(
         glam::Vec3::ZERO,
         1.0,
         32,
@@ -135,15 +133,15 @@ fn edit_latency(c: &mut Criterion) {
     )
     .unwrap();
     world.build_all(&*base).unwrap();
-    let centre = glam::Vec3::new(48.0, 48.0, 48.0);
+    let center = glam::Vec3::new(48.0, 48.0, 48.0);
     let field = EditedField::new(base)
-        .with_edit(Brush::sphere(centre, 4.0, BrushOp::Subtract))
+        .with_edit(Brush::sphere(center, 4.0, BrushOp::Subtract))
         .unwrap();
     let (lo_r, r) = field.last_reach().unwrap();
-    let touched: Vec<glam::IVec3> = world
-        .coords()
+    let touched: Vec<ChunkKey> = world
+        .chunks()
         .into_iter()
-        .filter(|&c| {
+        .filter(|c| {
             let (lo, hi) = world.chunk_bounds(c);
             lo_r.clamp(lo - glam::Vec3::ONE, hi + glam::Vec3::ONE)
                 .distance(lo_r)
@@ -158,17 +156,17 @@ fn edit_latency(c: &mut Criterion) {
     let mut mesh = IndexedMesh::default();
     g.bench_function("rebuild+reextract/1", |b| {
         b.iter(|| {
-            for &t in &touched {
+            for t in &touched {
                 world.build_chunk(t, &field).unwrap();
             }
-            let mut owners: Vec<glam::IVec3> = touched
+            let mut owners: Vec<ChunkKey> = touched
                 .iter()
-                .flat_map(|&t| world.seam_owners_touching(t))
+                .flat_map(|t| world.seam_owners_touching(t))
                 .collect();
-            owners.sort_by_key(|c| (c.z, c.y, c.x));
+            owners.sort_by_key(|c| c.order());
             owners.dedup();
             for o in owners {
-                world.snapshot(o).unwrap().extract(&mut mesh);
+                world.snapshot(&o).unwrap().extract(&mut mesh);
             }
             black_box(mesh.triangle_count())
         })

@@ -47,7 +47,7 @@
 
 use glam::{IVec3, Vec3};
 use kdcontour::field::terrain::{Density, DensityParams};
-use kdcontour::world::{ChunkKey, Layout, LevelWorld};
+use kdcontour::world::{ChunkKey, Layout, World};
 use kdcontour::{hermite, validate, Field, IndexedMesh, MeshReport, Settings};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -98,7 +98,7 @@ struct View {
 }
 
 /// The world for view distance `distance` (cells), laid out around the camera.
-fn layout(distance: u32, ring: f32) -> Result<LevelWorld, String> {
+fn layout(distance: u32, ring: f32) -> Result<World, String> {
     if !(distance.is_power_of_two() && distance >= 2 * CHUNK_RES) {
         return Err(format!(
             "view distance {distance} must be a power of two, at least {}",
@@ -115,7 +115,7 @@ fn layout(distance: u32, ring: f32) -> Result<LevelWorld, String> {
         ..Default::default()
     };
     let uniform = Layout::uniform(lo, hi, top).map_err(|e| e.to_string())?;
-    let mut world = LevelWorld::new(origin, 1.0, CHUNK_RES, uniform, THRESHOLD, settings)
+    let mut world = World::new(origin, 1.0, CHUNK_RES, uniform, THRESHOLD, settings)
         .map_err(|e| e.to_string())?;
     let camera = Vec3::new(16.0, CAMERA_HEIGHT, 16.0);
     let around = Layout::around(lo, hi, top, world.to_chunk_units(camera), ring)
@@ -205,7 +205,7 @@ fn fingerprint(mesh: &IndexedMesh) -> u64 {
 }
 
 /// The world box of the world's region (min, max).
-fn region(world: &LevelWorld) -> (Vec3, Vec3) {
+fn region(world: &World) -> (Vec3, Vec3) {
     let side = CHUNK_RES as f32 * world.cell_size;
     let l = world.layout();
     (
@@ -235,7 +235,7 @@ impl Field for Capped<'_> {
     }
 
     /// The larger of the field's bound and the wall's (distance-like, slope at
-    /// most 1: its value at the box's centre plus or minus the half-diagonal).
+    /// most 1: its value at the box's center plus or minus the half-diagonal).
     fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
         let (a, b) = self.field.bound(lo, hi)?;
         let w = self.wall((lo + hi) * 0.5);

@@ -11,7 +11,7 @@
 
 use glam::{IVec3, Vec2, Vec3};
 use kdcontour::field::terrain::{Density, DensityParams};
-use kdcontour::world::{ChunkKey, Layout, LevelWorld};
+use kdcontour::world::{ChunkKey, Layout, World};
 use kdcontour::Settings;
 use std::collections::HashSet;
 use std::time::Instant;
@@ -51,7 +51,7 @@ fn main() {
     let mut cam = Vec3::new(0.5, 40.0 / RES as f32, 0.5);
     let uniform = Layout::uniform(lo, hi, TOP).expect("a valid region");
     let mut world =
-        LevelWorld::new(Vec3::ZERO, 1.0, RES, uniform, 0.02, settings).expect("a valid world");
+        World::new(Vec3::ZERO, 1.0, RES, uniform, 0.02, settings).expect("a valid world");
     world
         .set_layout(Layout::around(lo, hi, TOP, cam, ring).expect("a valid layout"))
         .expect("within budget");

@@ -50,7 +50,7 @@ fn main() {
          {} crossings, {} value and {} gradient evaluations in all",
         grid.corner_count(),
         100.0 * sampled as f64 / grid.corner_count() as f64,
-        h.crossings,
+        h.crossing_count(),
         f.values.load(Ordering::Relaxed),
         f.gradients.load(Ordering::Relaxed)
     );

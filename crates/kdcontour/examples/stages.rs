@@ -6,7 +6,8 @@
 //! `cargo run --release -p kdcontour --example stages -- disk_pole 128 [reps] [threads]`
 //! `cargo run --release -p kdcontour --example stages -- chunk 32 50`
 
-use kdcontour::{hermite, kdtree, scenes, Field, Grid, IndexedMesh, Settings};
+use kdcontour::pipeline::{self, Cells};
+use kdcontour::{hermite, scenes, Field, Grid, IndexedMesh, Settings};
 use std::time::Instant;
 
 fn main() {
@@ -48,7 +49,7 @@ fn main() {
                 let t1 = Instant::now();
                 let h = hermite::Hermite::new(&*field, &grid, &values, &settings).unwrap();
                 let t2 = Instant::now();
-                let tree = kdtree::build(&h, &*field);
+                let tree = pipeline::tree(&h, &*field, &settings, Cells::All);
                 let t3 = Instant::now();
                 tree.extract(0.01, &mut mesh);
                 let t4 = Instant::now();
@@ -61,10 +62,10 @@ fn main() {
                 info = format!(
                     "{name} res {res}: {} active cells, {} nodes, {} components, \
                          {:.1} bytes per node, {} triangles at 0.01",
-                    h.cells.len(),
-                    tree.nodes.len(),
-                    tree.comps.len(),
-                    tree.retained_bytes() as f64 / tree.nodes.len().max(1) as f64,
+                    h.active_cells(),
+                    tree.node_count(),
+                    tree.component_count(),
+                    tree.retained_bytes() as f64 / tree.node_count().max(1) as f64,
                     mesh.triangle_count()
                 );
                 // A hash of the mesh: an optimisation that must not change the

@@ -20,7 +20,7 @@
 
 use crate::field::Field;
 use crate::grid::Grid;
-use crate::hermite::FAR;
+use crate::grid::FAR;
 use glam::{IVec3, UVec3, Vec3};
 
 pub use crate::settings::Boundary;

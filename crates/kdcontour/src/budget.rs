@@ -8,6 +8,7 @@
 //! the next starts (a loaded volume while its grid is built) is taken off with
 //! [`Budget::less`], so the budget covers the whole command, not each step alone.
 
+pub use crate::error::Size;
 use crate::error::{Error, Result};
 use std::fmt;
 
@@ -114,37 +115,6 @@ impl std::str::FromStr for Budget {
     type Err = String;
     fn from_str(s: &str) -> std::result::Result<Budget, String> {
         Budget::parse(s)
-    }
-}
-
-/// Bytes as people read them: `4 GiB`, `1.5 MiB`, `300 bytes` (binary units,
-/// three significant figures; whole numbers print without a fraction).
-pub struct Size(pub u64);
-
-impl fmt::Display for Size {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        const UNITS: [&str; 6] = ["KiB", "MiB", "GiB", "TiB", "PiB", "EiB"];
-        if self.0 < 1024 {
-            return write!(f, "{} bytes", self.0);
-        }
-        let mut v = self.0 as f64;
-        let mut unit = "bytes";
-        for u in UNITS {
-            if v < 1024.0 {
-                break;
-            }
-            v /= 1024.0;
-            unit = u;
-        }
-        if v.fract() == 0.0 {
-            write!(f, "{v} {unit}")
-        } else if v < 10.0 {
-            write!(f, "{v:.2} {unit}")
-        } else if v < 100.0 {
-            write!(f, "{v:.1} {unit}")
-        } else {
-            write!(f, "{v:.0} {unit}")
-        }
     }
 }
 

@@ -1,8 +1,8 @@
 //! The one error type of the core: every failure a user can cause, with a message
 //! that says what to change.
 
-use crate::budget::Size;
 use glam::Vec3;
+use std::fmt;
 
 /// Everything that can go wrong when sampling, building or loading.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
@@ -133,5 +133,36 @@ fn non_finite(position: &Vec3, value: f32, cause: Option<&str>) -> String {
              zero, sqrt of negatives, an unbounded noise amplitude, or noise evaluated \
              too far from its origin)"
         ),
+    }
+}
+
+/// Bytes as people read them: `4 GiB`, `1.5 MiB`, `300 bytes` (binary units,
+/// three significant figures; whole numbers print without a fraction).
+pub struct Size(pub u64);
+
+impl fmt::Display for Size {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        const UNITS: [&str; 6] = ["KiB", "MiB", "GiB", "TiB", "PiB", "EiB"];
+        if self.0 < 1024 {
+            return write!(f, "{} bytes", self.0);
+        }
+        let mut v = self.0 as f64;
+        let mut unit = "bytes";
+        for u in UNITS {
+            if v < 1024.0 {
+                break;
+            }
+            v /= 1024.0;
+            unit = u;
+        }
+        if v.fract() == 0.0 {
+            write!(f, "{v} {unit}")
+        } else if v < 10.0 {
+            write!(f, "{v:.2} {unit}")
+        } else if v < 100.0 {
+            write!(f, "{v:.1} {unit}")
+        } else {
+            write!(f, "{v:.0} {unit}")
+        }
     }
 }

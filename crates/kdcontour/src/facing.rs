@@ -15,9 +15,9 @@
 //! between its corners and its centroid to be flipped.
 
 use crate::field::Field;
+use crate::geometry;
 use crate::grid::Grid;
 use crate::mesh::{triangle_faces, QuadSplit};
-use crate::validate;
 use glam::{DVec3, Vec3};
 
 /// A triangle whose normal is more than this many degrees from one of its
@@ -42,7 +42,7 @@ impl<'a> Facing<'a> {
             field,
             grid: *grid,
             check_cos2: (FIELD_CHECK_DEGREES as f64).to_radians().cos().powi(2),
-            min_twice_area: 2.0 * validate::ZERO_AREA_CELLS2 * (grid.cell_size as f64).powi(2),
+            min_twice_area: 2.0 * geometry::ZERO_AREA_CELLS2 * (grid.cell_size as f64).powi(2),
         }
     }
 
@@ -61,7 +61,7 @@ impl<'a> Facing<'a> {
             3 => {
                 let p = [0, 1, 2].map(world);
                 let n = [0, 1, 2].map(|i| corners[i].1);
-                triangle_faces(p, n, facing) && self.holds(p, n, validate::face_normal(p), &also)
+                triangle_faces(p, n, facing) && self.holds(p, n, geometry::face_normal(p), &also)
             }
             4 => {
                 let p = [0, 1, 2, 3].map(world);
@@ -91,7 +91,7 @@ impl<'a> Facing<'a> {
         cross: DVec3,
         also: &impl Fn([Vec3; 3]) -> bool,
     ) -> bool {
-        self.sized(cross) && also(p) && !(self.strays(cross, n) && validate::flipped(self.field, p))
+        self.sized(cross) && also(p) && !(self.strays(cross, n) && geometry::flipped(self.field, p))
     }
 
     /// Whether a triangle of normal `cross` (unnormalised) has at least the area

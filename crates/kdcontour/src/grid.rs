@@ -144,6 +144,11 @@ impl Grid {
     }
 }
 
+/// The magnitude sampling ([`crate::hermite::sample`]) gives corners it proved far
+/// from the surface without evaluating them (their sign is exact, their value is
+/// not); the padding of a capped grid ([`crate::boundary`]) takes it too.
+pub(crate) const FAR: f32 = f32::MAX;
+
 #[cfg(test)]
 mod tests {
     use super::*;

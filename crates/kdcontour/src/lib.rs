@@ -25,7 +25,9 @@
 //! Data flows one way: [`field`] -> [`hermite`] (built on [`qef`] and [`cell`]) ->
 //! [`kdtree`] -> [`world`], with [`io`], [`validate`](mod@validate) and
 //! [`mesh`](mod@mesh) beside. [`settings`] (with the memory [`budget`]) and
-//! [`error`] sit below them all; [`KdTree::build`] runs the whole pipeline once.
+//! [`error`] sit below them all. The chunk pipeline (samples -> Hermite data ->
+//! tree -> paint -> extract) is written once, in [`pipeline`]: [`KdTree::build`]
+//! runs it over a grid, a [`World`]'s chunks over their own grids.
 //!
 //! ## Inputs and baselines
 //! - Fields: [`field::sdf`] primitives, [`field::csg`] trees and JSON scene files,
@@ -49,11 +51,11 @@
 //!   so the Euler characteristic at any threshold equals the uniform one.
 //! - **Sharp features**: vertices minimise the QEF of their crossings, so box corners
 //!   and CSG creases are reproduced; each vertex stays inside its cell or node.
-//! - **Crack-free chunk worlds**: chunks at different thresholds
-//!   ([`ChunkWorld`]) and at different levels, cells doubling per level
-//!   ([`LevelWorld`], 2:1 balanced [`world::Layout`]s), weld into one closed,
-//!   2-manifold, oriented mesh with no skirts, transition cells or overlap: the
-//!   finer side of a level seam conforms to the coarser (see [`world::levels`]).
+//! - **Crack-free chunk worlds**: the chunks of a [`World`], at different
+//!   thresholds and at different levels, cells doubling per level (2:1 balanced
+//!   [`world::Layout`]s), weld into one closed, 2-manifold, oriented mesh with no
+//!   skirts, transition cells or overlap: the finer side of a level seam conforms
+//!   to the coarser (see [`world`]).
 //! - **Surfaces that leave the grid** ([`Settings::boundary`], see [`boundary`]):
 //!   by default ([`Boundary::Open`]) the mesh ends half a cell inside the grid's
 //!   faces at every threshold, covering what the uniform mesh covers (nodes the
@@ -90,7 +92,7 @@
 //!   only against the neighbour's finest cells, so a seam next to a coarser chunk
 //!   can still fold. [`validate_with`] counts all of these (see
 //!   [`validate`](mod@validate) for what each figure means); the tests record
-//!   today's counts per scene (`tests/geometry.rs`, issue 13).
+//!   today's counts per scene (`tests/geometry.rs`).
 //! - A vertex holds one material blend, so a border between materials is drawn
 //!   along mesh edges only where [`material::split_borders`] splits the vertices
 //!   on it: on creases (a CSG cut, a cave mouth; the plugin does this for every
@@ -121,6 +123,7 @@ pub mod edit;
 pub mod error;
 pub mod facing;
 pub mod field;
+pub mod geometry;
 pub mod grid;
 pub mod hermite;
 pub mod io;
@@ -129,6 +132,7 @@ pub mod material;
 pub mod mc;
 pub mod mesh;
 pub mod meshers;
+pub mod pipeline;
 pub mod qef;
 pub mod scenes;
 pub mod settings;
@@ -146,7 +150,22 @@ pub use material::MaterialBlend;
 pub use mesh::IndexedMesh;
 pub use settings::{Boundary, Partition, Settings};
 pub use validate::{validate, validate_with, Checks, MeshReport};
-pub use world::{ChunkWorld, LevelWorld, Lod};
+pub use world::{Lod, World};
+
+/// What most users of the core need, in one import: `use kdcontour::prelude::*;`.
+pub mod prelude {
+    pub use crate::edit::{Brush, BrushOp, EditedField};
+    pub use crate::field::csg::{Csg, CsgNode};
+    pub use crate::field::Field;
+    pub use crate::grid::Grid;
+    pub use crate::kdtree::KdTree;
+    pub use crate::material::MaterialBlend;
+    pub use crate::mesh::IndexedMesh;
+    pub use crate::settings::{Boundary, Budget, Partition, Settings};
+    pub use crate::validate::{validate, validate_with, Checks, MeshReport};
+    pub use crate::world::{ChunkKey, Layout, Lod, World};
+    pub use crate::{Error, Result};
+}
 
 /// Builds the tree and contours it once at `threshold`.
 pub fn mesh(

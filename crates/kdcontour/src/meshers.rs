@@ -5,8 +5,8 @@ use crate::error::Result;
 use crate::field::Field;
 use crate::grid::Grid;
 use crate::hermite::Hermite;
-use crate::kdtree;
 use crate::mesh::IndexedMesh;
+use crate::pipeline::{self, Cells};
 use crate::settings::{Partition, Settings};
 use std::time::Instant;
 
@@ -100,7 +100,7 @@ pub struct Sampled<'a> {
 pub fn sample<'a>(field: &'a dyn Field, grid: &Grid, settings: &Settings) -> Result<Sampled<'a>> {
     settings.run(|| {
         let t0 = Instant::now();
-        let hermite = Hermite::from_field(field, grid, settings)?;
+        let hermite = pipeline::hermite(field, grid, settings)?;
         Ok(Sampled {
             hermite,
             field,
@@ -137,7 +137,11 @@ pub fn run(
                 } else {
                     Partition::KdTree
                 };
-                let tree = kdtree::build_with(&s.hermite, s.field, partition);
+                let settings = Settings {
+                    partition,
+                    ..settings.clone()
+                };
+                let tree = pipeline::tree(&s.hermite, s.field, &settings, Cells::All);
                 t.build_ms = t0.elapsed().as_secs_f64() * 1e3;
                 let t1 = Instant::now();
                 let m = tree.mesh(threshold);

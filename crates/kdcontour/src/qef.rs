@@ -16,7 +16,7 @@ use glam::{DVec3, Vec3};
 /// tan²(θ/2); 0.02 keeps creases sharper than 16° and treats the spread of normals
 /// across one cell of a curved surface (a sphere of radius 8 cells spreads them by
 /// about 7°, ratio 0.004) as noise, so smooth surfaces get no spiky vertices.
-pub const SVD_CUTOFF: f64 = 0.02;
+pub(crate) const SVD_CUTOFF: f64 = 0.02;
 
 /// Accumulated Hermite planes of a region.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -188,7 +188,7 @@ pub fn scene(name: &str) -> Result<Scene, Error> {
 
 /// The streaming-terrain chunk that benchmarks and tests measure: `res`³ cells of
 /// 1 m over a 5-octave fBm height field (seed 3, amplitude 10 m, frequency 0.015),
-/// the grid starting at x = z = 0 and centred on y = 0, as the Bevy terrain example
+/// the grid starting at x = z = 0 and centerd on y = 0, as the Bevy terrain example
 /// meshes one chunk (without its halo).
 pub fn terrain_chunk(res: u32) -> (crate::field::terrain::Heightfield, crate::Grid) {
     use crate::field::terrain::{Heightfield, HeightfieldParams};

@@ -135,7 +135,7 @@ fn a_surface_inside_the_grid_meshes_the_same_either_way() {
         };
         let open = KdTree::build(&*field, &grid, &s(Boundary::Open)).unwrap();
         let capped = KdTree::build(&*field, &grid, &s(Boundary::Capped)).unwrap();
-        assert_eq!(capped.grid, grid);
+        assert_eq!(*capped.grid(), grid);
         for e in [-1.0, 0.01, 0.1] {
             assert_eq!(open.mesh(e), capped.mesh(e));
         }

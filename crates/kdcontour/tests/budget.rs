@@ -10,7 +10,7 @@ use kdcontour::io::input::Input;
 use kdcontour::io::mesh::{load_mesh, load_mesh_within, mesh_from_bytes_within, MeshFormat};
 use kdcontour::io::volume::{self, load_raw_within, RawLayout, VoxelType};
 use kdcontour::world::Layout;
-use kdcontour::{Budget, ChunkWorld, Error, Grid, IndexedMesh, KdTree, LevelWorld, Settings};
+use kdcontour::{Budget, Error, Grid, IndexedMesh, KdTree, Settings, World};
 use std::path::PathBuf;
 
 fn tmp(name: &str) -> PathBuf {
@@ -126,7 +126,7 @@ fn a_small_budget_refuses_grids_and_whole_worlds_before_building() {
     // The world's chunks together: 3x3x3 chunks of 32 cells need more than one
     // chunk of them does.
     let world = |settings: &Settings| {
-        ChunkWorld::new(
+        World::bounded(
             Vec3::splat(-1.0),
             2.0 / 96.0,
             32,
@@ -149,8 +149,8 @@ fn a_small_budget_refuses_grids_and_whole_worlds_before_building() {
     assert!(w.retained_bytes() > 0);
     // A level world: its level-0 chunk count, before any layout is built.
     over(
-        LevelWorld::check_budget(1 << 30, 4, &one).unwrap_err(),
-        "a level world of 1073741824 chunks of 4^3 cells",
+        World::check_chunk_count(1 << 30, 4, &one).unwrap_err(),
+        "a world of 1073741824 chunks of 4^3 cells",
         "4 GiB",
     );
     let layout = Layout::uniform(IVec3::ZERO, IVec3::splat(8), 1).unwrap();
@@ -158,11 +158,11 @@ fn a_small_budget_refuses_grids_and_whole_worlds_before_building() {
         memory_budget: Budget::bytes(1 << 10),
         ..one.clone()
     };
-    let e = LevelWorld::new(Vec3::ZERO, 0.1, 8, layout.clone(), 0.01, tiny)
+    let e = World::new(Vec3::ZERO, 0.1, 8, layout.clone(), 0.01, tiny)
         .err()
         .unwrap();
-    over(e, "a level world of 64 chunks of 8^3 cells", "1 KiB");
-    assert!(LevelWorld::new(Vec3::ZERO, 0.1, 8, layout, 0.01, one).is_ok());
+    over(e, "a world of 64 chunks of 8^3 cells", "1 KiB");
+    assert!(World::new(Vec3::ZERO, 0.1, 8, layout, 0.01, one).is_ok());
 }
 
 #[test]

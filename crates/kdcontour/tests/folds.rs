@@ -5,7 +5,7 @@
 //! neighbours' finest cells only: their defects are printed.
 
 use glam::Vec3;
-use kdcontour::world::{Layout, LevelWorld};
+use kdcontour::world::{Layout, World};
 use kdcontour::{
     scenes, validate_with, Checks, Field, Grid, IndexedMesh, KdTree, MeshReport, Settings,
 };
@@ -126,14 +126,18 @@ fn chunk_interiors_at_random_thresholds_do_not_fold() {
         let cell = 2.0 / (chunks * res) as f32;
         let mut w = chunk_world(&*scene.field, chunks, res);
         for round in 0..3 {
-            for c in w.coords() {
-                w.set_threshold(c, THRESHOLDS[rng.next() % THRESHOLDS.len()]);
+            for c in w.chunks() {
+                w.set_threshold(&c, THRESHOLDS[rng.next() % THRESHOLDS.len()]);
             }
             let mut zero_area = 0;
-            for c in w.coords() {
-                w.extract_interior(c, &mut one);
-                zero_area +=
-                    assert_interior_clean(&one, &*scene.field, cell, &format!("{name} {c}"));
+            for c in w.chunks() {
+                w.extract_interior(&c, &mut one);
+                zero_area += assert_interior_clean(
+                    &one,
+                    &*scene.field,
+                    cell,
+                    &format!("{name} {}", c.coord),
+                );
             }
             println!("{name} round {round}: zero-area faces inside chunks: {zero_area}");
             print_world(
@@ -156,7 +160,7 @@ fn level_chunk_interiors_at_random_thresholds_do_not_fold() {
         let scene = scenes::scene(name).unwrap();
         let layout =
             Layout::random(glam::IVec3::ZERO, glam::IVec3::splat(region), 2, 0.3, seed).unwrap();
-        let mut w = LevelWorld::new(
+        let mut w = World::new(
             Vec3::splat(-1.0),
             cell,
             res,

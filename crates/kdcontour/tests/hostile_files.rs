@@ -9,7 +9,7 @@ use kdcontour::field::volume::Inside;
 use kdcontour::io::input::Input;
 use kdcontour::io::mesh::{mesh_from_bytes, MeshFormat};
 use kdcontour::io::volume::{self, load_raw, raw_from_bytes, read_nifti, VoxelType};
-use kdcontour::{Budget, ChunkWorld, CsgNode, Error, Grid, IndexedMesh, KdTree, Settings};
+use kdcontour::{Budget, CsgNode, Error, Grid, IndexedMesh, KdTree, Settings, World};
 use std::io::Read;
 use std::path::PathBuf;
 
@@ -247,7 +247,7 @@ fn huge_noise_parameters_are_errors_not_panics() {
 #[test]
 fn a_world_over_the_budget_is_refused_before_any_chunk_exists() {
     let s = Settings::default();
-    let e = ChunkWorld::new(
+    let e = World::bounded(
         Vec3::splat(-1.0),
         2.0 / 4096.0,
         16,
@@ -265,7 +265,7 @@ fn a_world_over_the_budget_is_refused_before_any_chunk_exists() {
     );
     assert!(msg.contains("memory budget"), "{msg}");
     // The default world of the command line fits.
-    assert!(ChunkWorld::new(Vec3::splat(-1.0), 2.0 / 48.0, 16, UVec3::splat(3), 0.01, s).is_ok());
+    assert!(World::bounded(Vec3::splat(-1.0), 2.0 / 48.0, 16, UVec3::splat(3), 0.01, s).is_ok());
 }
 
 #[test]

@@ -65,7 +65,7 @@ fn phantom_round_trips_through_nifti_and_gzip_and_meshes_closed() {
 fn raw_volumes_of_every_type() {
     let dims = UVec3::new(12, 10, 9);
     let n = (dims.x * dims.y * dims.z) as usize;
-    // A ball of radius 3.5 voxels around the centre.
+    // A ball of radius 3.5 voxels around the center.
     let value = |i: usize| {
         let (x, y, z) = (i % 12, (i / 12) % 10, i / 120);
         let d = Vec3::new(x as f32 - 5.5, y as f32 - 4.5, z as f32 - 4.0).length();
@@ -306,7 +306,7 @@ fn a_mesh_with_holes_still_meshes_closed() {
     m.triangles.drain(0..12);
     m.triangles.drain(100..110);
     let sdf = MeshSdf::new(&m);
-    assert!(sdf.value(Vec3::ZERO) < 0.0, "the centre stays inside");
+    assert!(sdf.value(Vec3::ZERO) < 0.0, "the center stays inside");
     assert!(
         sdf.value(Vec3::new(0.0, 0.0, 1.5)) > 0.0,
         "above the hole stays outside"

@@ -5,8 +5,8 @@
 
 use glam::{IVec3, UVec3, Vec3};
 use kdcontour::edit::{Brush, BrushOp, EditedField};
-use kdcontour::world::{ChunkKey, Layout, LevelWorld, Seam};
-use kdcontour::{scenes, validate, ChunkWorld, Field, IndexedMesh, Settings};
+use kdcontour::world::{ChunkKey, Layout, Seam, World};
+use kdcontour::{scenes, validate, Field, IndexedMesh, Settings};
 use std::sync::Arc;
 
 /// Level-0 chunks per axis of the test region (four level-2 chunks), cells per
@@ -15,7 +15,7 @@ const REGION: i32 = 16;
 const RES: u32 = 8;
 const THRESHOLDS: [f32; 6] = [-1.0, 0.001, 0.01, 0.1, 1.0, 10.0];
 /// `caves` at threshold 10 has one non-manifold edge in a plain single-level
-/// `ChunkWorld` of 8^3 chunks of 8 cells too (a clustering case at same-level
+/// bounded world of 8^3 chunks of 8 cells too (a clustering case at same-level
 /// seams, not a level seam), so its thresholds stop at 1.
 const CAVES_THRESHOLDS: usize = 5;
 
@@ -31,21 +31,21 @@ fn random_layout(seed: u64) -> Layout {
     Layout::random(lo, hi, 2, 0.3, seed).unwrap()
 }
 
-fn level_world(field: &dyn Field, layout: Layout, settings: Settings) -> LevelWorld {
+fn level_world(field: &dyn Field, layout: Layout, settings: Settings) -> World {
     let cell = 2.0 / (REGION as u32 * RES) as f32;
-    let mut w = LevelWorld::new(Vec3::splat(-1.0), cell, RES, layout, 0.01, settings).unwrap();
+    let mut w = World::new(Vec3::splat(-1.0), cell, RES, layout, 0.01, settings).unwrap();
     w.build_all(field).unwrap();
     w
 }
 
-fn randomise(w: &mut LevelWorld, rng: &mut Lcg, n: usize) {
+fn randomise(w: &mut World, rng: &mut Lcg, n: usize) {
     for k in w.chunks() {
         w.set_threshold(&k, THRESHOLDS[rng.next() % n]);
     }
 }
 
 /// Face and edge seams between chunks of different levels.
-fn level_seams(w: &LevelWorld) -> usize {
+fn level_seams(w: &World) -> usize {
     let mut n = 0;
     for k in w.chunks() {
         for s in w.owned_seams(&k) {
@@ -60,7 +60,7 @@ fn level_seams(w: &LevelWorld) -> usize {
 
 /// The welded world mesh is closed, manifold and oriented, and the chunk meshes
 /// (interior + owned seams, or a snapshot) add up to it.
-fn check(w: &LevelWorld, what: &str) -> IndexedMesh {
+fn check(w: &World, what: &str) -> IndexedMesh {
     let m = w.extract_all();
     let r = validate(&m, None);
     assert!(r.triangles > 0 && r.is_closed_manifold(), "{what}: {r:?}");
@@ -88,11 +88,11 @@ fn check(w: &LevelWorld, what: &str) -> IndexedMesh {
 }
 
 #[test]
-fn level_zero_layout_is_the_chunk_world_bit_for_bit() {
+fn level_zero_layout_is_the_bounded_world_bit_for_bit() {
     let scene = scenes::scene("torus").unwrap();
     let cell = 2.0 / 36.0;
     let layout = Layout::uniform(IVec3::ZERO, IVec3::splat(3), 0).unwrap();
-    let mut lw = LevelWorld::new(
+    let mut lw = World::new(
         Vec3::splat(-1.0),
         cell,
         12,
@@ -102,7 +102,7 @@ fn level_zero_layout_is_the_chunk_world_bit_for_bit() {
     )
     .unwrap();
     lw.build_all(&*scene.field).unwrap();
-    let mut cw = ChunkWorld::new(
+    let mut cw = World::bounded(
         Vec3::splat(-1.0),
         cell,
         12,
@@ -113,10 +113,10 @@ fn level_zero_layout_is_the_chunk_world_bit_for_bit() {
     .unwrap();
     cw.build_all(&*scene.field).unwrap();
     let mut rng = Lcg(1);
-    for c in cw.coords() {
+    for c in cw.chunks() {
         let e = THRESHOLDS[rng.next() % THRESHOLDS.len()];
-        cw.set_threshold(c, e);
-        lw.set_threshold(&ChunkKey::new(0, c), e);
+        cw.set_threshold(&c, e);
+        lw.set_threshold(&c, e);
     }
     assert_eq!(lw.extract_all(), cw.extract_all());
 }
@@ -222,14 +222,14 @@ fn level_changes_and_edits_rebuild_the_stale_chunks_and_stay_closed() {
         check(&w, &format!("layout {step}"));
         // An edit: rebuild the chunks whose box, grown by two of their cells (the
         // samples a finer chunk conforms to), meets the brush.
-        let centre = Vec3::new(0.55 * (step as f32).cos(), 0.1, 0.55 * (step as f32).sin());
+        let center = Vec3::new(0.55 * (step as f32).cos(), 0.1, 0.55 * (step as f32).sin());
         let op = if step % 2 == 0 {
             BrushOp::Add
         } else {
             BrushOp::Subtract
         };
-        field = field.with_edit(Brush::sphere(centre, 0.2, op)).unwrap();
-        let touched = w.edited(centre, 0.2);
+        field = field.with_edit(Brush::sphere(center, 0.2, op)).unwrap();
+        let touched = w.edited(center, 0.2);
         assert!(!touched.is_empty() && touched.len() < w.chunks().len());
         w.build(&touched, &field).unwrap();
         let m = check(&w, &format!("edit {step}"));
@@ -263,7 +263,7 @@ fn a_chunk_whose_neighbour_changes_level_is_rebuilt_from_its_kept_samples() {
     for keep in [true, false] {
         let counting = Counting(field, 0.into());
         let cell = 2.0 / (REGION as u32 * RES) as f32;
-        let mut w = LevelWorld::new(
+        let mut w = World::new(
             Vec3::splat(-1.0),
             cell,
             RES,
@@ -428,8 +428,8 @@ fn layouts_are_checked_for_cover_and_balance() {
     assert_eq!(l.chunk_at(IVec3::splat(7)).unwrap().level, 2);
     // Bad worlds.
     let s = Settings::default();
-    assert!(LevelWorld::new(Vec3::ZERO, 0.1, 7, l.clone(), 0.01, s.clone()).is_err());
-    assert!(LevelWorld::new(Vec3::ZERO, 0.1, 8, l, f32::NAN, s).is_err());
+    assert!(World::new(Vec3::ZERO, 0.1, 7, l.clone(), 0.01, s.clone()).is_err());
+    assert!(World::new(Vec3::ZERO, 0.1, 8, l, f32::NAN, s).is_err());
 }
 
 #[test]

@@ -7,10 +7,8 @@ use glam::{IVec3, Vec3};
 use kdcontour::edit::{Brush, BrushOp, EditedField};
 use kdcontour::field::terrain::{Density, DensityParams};
 use kdcontour::material::{terrain_ids, MaterialBlend};
-use kdcontour::world::{Layout, LevelWorld};
-use kdcontour::{
-    scenes, validate, ChunkWorld, CsgNode, Field, Grid, IndexedMesh, KdTree, Settings,
-};
+use kdcontour::world::{ChunkKey, Layout, World};
+use kdcontour::{scenes, validate, CsgNode, Field, Grid, IndexedMesh, KdTree, Settings};
 use std::sync::Arc;
 
 mod common;
@@ -254,10 +252,10 @@ fn chunk_and_level_worlds_with_materials_keep_every_invariant() {
     for name in ["csg_mix", "caves"] {
         let scene = scenes::scene(name).unwrap();
         let field = &*scene.field;
-        let mut w: ChunkWorld = common::chunk_world(field, 3, 12);
+        let mut w: World = common::chunk_world(field, 3, 12);
         let mut rng = common::Lcg(11);
-        for c in w.coords() {
-            w.set_threshold(c, [-1.0, 0.01, 1.0][rng.next() % 3]);
+        for c in w.chunks() {
+            w.set_threshold(&c, [-1.0, 0.01, 1.0][rng.next() % 3]);
         }
         let cell = 2.0 / 36.0;
         let m = w.extract_all();
@@ -266,18 +264,18 @@ fn chunk_and_level_worlds_with_materials_keep_every_invariant() {
         assert_materials_match(&m, field, cell, name);
         // Each chunk's own mesh carries its materials too.
         let mut one = IndexedMesh::default();
-        for c in w.coords() {
-            w.extract_interior(c, &mut one);
+        for c in w.chunks() {
+            w.extract_interior(&c, &mut one);
             assert_eq!(one.materials.len(), one.vertex_count());
-            let Some(snapshot) = w.snapshot(c) else {
+            let Some(snapshot) = w.snapshot(&c) else {
                 continue;
             };
             snapshot.extract(&mut one);
-            assert_materials_match(&one, field, cell, &format!("{name} chunk {c}"));
+            assert_materials_match(&one, field, cell, &format!("{name} chunk {c:?}"));
         }
         // Chunks of two levels.
         let layout = Layout::random(IVec3::ZERO, IVec3::splat(4), 2, 0.3, 5).unwrap();
-        let mut lw = LevelWorld::new(
+        let mut lw = World::new(
             Vec3::splat(-1.0),
             0.5 / 8.0,
             8,
@@ -294,12 +292,12 @@ fn chunk_and_level_worlds_with_materials_keep_every_invariant() {
     }
     // A demo terrain chunk, as the plugin streams it.
     let field = Density::new(DensityParams::demo(2));
-    let mut w = ChunkWorld::unbounded(Vec3::ZERO, 1.0, 32, 1.0, Settings::default()).unwrap();
-    let c = IVec3::new(0, -1, 0);
-    w.add_chunk(c).unwrap();
-    w.build_chunk(c, &field).unwrap();
+    let mut w = World::unbounded(Vec3::ZERO, 1.0, 32, 1.0, Settings::default()).unwrap();
+    let c = ChunkKey::new(0, IVec3::new(0, -1, 0));
+    w.add_chunk(c.coord).unwrap();
+    w.build_chunk(&c, &field).unwrap();
     let mut mesh = IndexedMesh::default();
-    w.snapshot(c).unwrap().extract(&mut mesh);
+    w.snapshot(&c).unwrap().extract(&mut mesh);
     assert!(mesh.triangle_count() > 100);
     assert_materials_match(&mesh, &field, 1.0, "demo chunk");
     let r = validate(&mesh, Some((&field, 1.0)));

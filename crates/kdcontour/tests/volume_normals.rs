@@ -94,12 +94,12 @@ fn both(vol: SampledVolume) -> (Vec<f32>, Vec<f32>) {
 #[test]
 fn neighbouring_normals_on_the_phantom_skull_turn_smoothly() {
     // The phantom as `kdcontour phantom` writes it by default (each voxel the
-    // density at its centre), at one cell per voxel.
+    // density at its center), at one cell per voxel.
     let (new_a, old_a) = both(phantom(128));
     let (new_mean, new_p95, new_max) = summary(&new_a);
     let (old_mean, old_p95, old_max) = summary(&old_a);
     println!(
-        "centre samples, crown edges {}: spline gradient mean {new_mean:.2} p95 {new_p95:.2} max \
+        "center samples, crown edges {}: spline gradient mean {new_mean:.2} p95 {new_p95:.2} max \
          {new_max:.2} degrees; trilinear slope (before) mean {old_mean:.2} p95 {old_p95:.2} max \
          {old_max:.2}",
         new_a.len()

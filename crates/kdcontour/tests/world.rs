@@ -4,7 +4,7 @@
 
 use glam::{IVec3, UVec3, Vec3};
 use kdcontour::{
-    scenes, validate, ChunkWorld, CsgNode, Field, Grid, IndexedMesh, KdTree, Settings,
+    scenes, validate, world::ChunkKey, CsgNode, Field, Grid, IndexedMesh, KdTree, Settings, World,
 };
 
 const LEVELS: [f32; 6] = [-1.0, 0.001, 0.01, 0.1, 1.0, 10.0];
@@ -17,14 +17,14 @@ fn single_grid_euler(field: &dyn Field, cells: u32) -> i64 {
     validate(&tree.mesh(-1.0), None).euler
 }
 
-fn randomise(w: &mut ChunkWorld, rng: &mut Lcg) {
-    let coords: Vec<IVec3> = w.coords();
+fn randomise(w: &mut World, rng: &mut Lcg) {
+    let coords: Vec<ChunkKey> = w.chunks();
     for c in coords {
-        w.set_threshold(c, LEVELS[rng.next() % LEVELS.len()]);
+        w.set_threshold(&c, LEVELS[rng.next() % LEVELS.len()]);
     }
 }
 
-fn check(w: &ChunkWorld, euler: i64, what: &str) -> IndexedMesh {
+fn check(w: &World, euler: i64, what: &str) -> IndexedMesh {
     let m = w.extract_all();
     let r = validate(&m, None);
     assert!(r.triangles > 0 && r.is_closed_manifold(), "{what}: {r:?}");
@@ -32,10 +32,10 @@ fn check(w: &ChunkWorld, euler: i64, what: &str) -> IndexedMesh {
     // The per-chunk meshes (interior + owned seams) hold the same triangles.
     let mut parts = 0;
     let mut one = IndexedMesh::default();
-    for c in w.coords() {
-        w.extract_interior(c, &mut one);
+    for c in w.chunks() {
+        w.extract_interior(&c, &mut one);
         parts += one.triangle_count();
-        w.extract_seams(c, &mut one);
+        w.extract_seams(&c, &mut one);
         parts += one.triangle_count();
     }
     assert_eq!(
@@ -74,10 +74,10 @@ fn edits_rebuild_only_the_touched_chunks_and_stay_closed() {
         (Vec3::new(0.0, -0.34, 0.33), 0.2, true),
     ];
     let mut json = base.to_string();
-    for (i, (centre, radius, add)) in edits.iter().enumerate() {
+    for (i, (center, radius, add)) in edits.iter().enumerate() {
         let ball = format!(
             r#"{{"type":"sphere","radius":{radius},"center":[{},{},{}]}}"#,
-            centre.x, centre.y, centre.z
+            center.x, center.y, center.z
         );
         json = if *add {
             format!(r#"{{"type":"union","children":[{json},{ball}]}}"#)
@@ -87,13 +87,13 @@ fn edits_rebuild_only_the_touched_chunks_and_stay_closed() {
         let field = CsgNode::from_json(&json).unwrap().compile().unwrap();
         // Rebuild the chunks whose box, grown by one cell, meets the brush.
         let mut rebuilt = Vec::new();
-        let coords: Vec<IVec3> = w.coords();
+        let coords: Vec<ChunkKey> = w.chunks();
         for c in coords {
-            let (lo, hi) = w.chunk_bounds(c);
+            let (lo, hi) = w.chunk_bounds(&c);
             let grow = w.cell_size;
-            let nearest = centre.clamp(lo - grow, hi + grow);
-            if nearest.distance(*centre) <= *radius {
-                w.build_chunk(c, &field).unwrap();
+            let nearest = center.clamp(lo - grow, hi + grow);
+            if nearest.distance(*center) <= *radius {
+                w.build_chunk(&c, &field).unwrap();
                 rebuilt.push(c);
             }
         }
@@ -105,8 +105,8 @@ fn edits_rebuild_only_the_touched_chunks_and_stay_closed() {
         check(&w, euler, &format!("after edit {i}"));
         // A from-scratch world of the edited field gives the same mesh.
         let mut fresh = world(&field, 3, 12);
-        for c in w.coords() {
-            fresh.set_threshold(c, w.threshold(c));
+        for c in w.chunks() {
+            fresh.set_threshold(&c, w.threshold(&c));
         }
         assert_eq!(
             fresh.extract_all(),
@@ -121,7 +121,7 @@ fn threshold_changes_never_resample_and_threads_agree() {
     let scene = scenes::scene("csg_mix").unwrap();
     let one = {
         let cell = 2.0 / 36.0;
-        let mut w = ChunkWorld::new(
+        let mut w = World::bounded(
             Vec3::splat(-1.0),
             cell,
             12,
@@ -138,17 +138,21 @@ fn threshold_changes_never_resample_and_threads_agree() {
     };
     let many = world(&*scene.field, 3, 12);
     assert_eq!(one.extract_all(), many.extract_all());
-    assert!(one.seam_owners_touching(IVec3::splat(1)).len() == 7);
-    assert_eq!(one.seam_owners_touching(IVec3::ZERO), vec![IVec3::ZERO]);
+    let key = |c: IVec3| ChunkKey::new(0, c);
+    assert!(one.seam_owners_touching(&key(IVec3::splat(1))).len() == 7);
+    assert_eq!(
+        one.seam_owners_touching(&key(IVec3::ZERO)),
+        vec![key(IVec3::ZERO)]
+    );
 }
 
 #[test]
 fn bad_world_settings_are_errors() {
     let s = Settings::default();
-    assert!(ChunkWorld::new(Vec3::ZERO, 0.1, 0, UVec3::ONE, 0.01, s.clone()).is_err());
-    assert!(ChunkWorld::new(Vec3::ZERO, 0.1, 8, UVec3::new(0, 1, 1), 0.01, s.clone()).is_err());
-    assert!(ChunkWorld::new(Vec3::ZERO, -0.1, 8, UVec3::ONE, 0.01, s.clone()).is_err());
-    assert!(ChunkWorld::new(Vec3::ZERO, 0.1, 8, UVec3::ONE, f32::NAN, s).is_err());
+    assert!(World::bounded(Vec3::ZERO, 0.1, 0, UVec3::ONE, 0.01, s.clone()).is_err());
+    assert!(World::bounded(Vec3::ZERO, 0.1, 8, UVec3::new(0, 1, 1), 0.01, s.clone()).is_err());
+    assert!(World::bounded(Vec3::ZERO, -0.1, 8, UVec3::ONE, 0.01, s.clone()).is_err());
+    assert!(World::bounded(Vec3::ZERO, 0.1, 8, UVec3::ONE, f32::NAN, s).is_err());
 }
 
 #[test]
@@ -192,11 +196,11 @@ fn snapshots_match_the_world_and_edit_logs_replay() {
     check(&w, euler, "edited torus");
     let mut a = IndexedMesh::default();
     let mut b = IndexedMesh::default();
-    for c in w.coords() {
-        w.snapshot(c).unwrap().extract(&mut a);
-        w.extract_interior(c, &mut b);
+    for c in w.chunks() {
+        w.snapshot(&c).unwrap().extract(&mut a);
+        w.extract_interior(&c, &mut b);
         let mut seams = IndexedMesh::default();
-        w.extract_seams(c, &mut seams);
+        w.extract_seams(&c, &mut seams);
         assert_eq!(
             a.triangle_count(),
             b.triangle_count() + seams.triangle_count(),
@@ -227,9 +231,9 @@ fn snapshots_match_the_world_and_edit_logs_replay() {
 }
 
 /// An unbounded world holding the chunks in `set`, built.
-fn unbounded(field: &dyn Field, set: &[IVec3], res: u32) -> ChunkWorld {
+fn unbounded(field: &dyn Field, set: &[IVec3], res: u32) -> World {
     let cell = 2.0 / (3 * res) as f32;
-    let mut w = ChunkWorld::unbounded(
+    let mut w = World::unbounded(
         Vec3::splat(-1.0 / 3.0),
         cell,
         res,
@@ -265,7 +269,7 @@ fn unbounded_worlds_take_negative_chunks_and_stay_closed() {
         let euler = single_grid_euler(&*scene.field, 36);
         let mut w = unbounded(&*scene.field, &block(-IVec3::ONE, IVec3::ONE), 12);
         assert_eq!(w.len(), 27);
-        assert_eq!(w.bounds(), None);
+        assert!(w.layout().is_open());
         for round in 0..3 {
             randomise(&mut w, &mut rng);
             check(&w, euler, &format!("unbounded {name} round {round}"));
@@ -287,25 +291,28 @@ fn streaming_chunks_in_and_out_equals_a_fresh_world() {
     let mut rng = Lcg(3);
     randomise(&mut w, &mut rng);
     for c in block(IVec3::new(-1, -1, -1), IVec3::new(-1, 1, 1)) {
-        assert!(w.remove_chunk(c));
+        assert!(w.remove_chunk(&ChunkKey::new(0, c)));
     }
     for c in block(IVec3::new(2, -1, -1), IVec3::new(2, 1, 1)) {
         assert!(w.add_chunk(c).unwrap());
-        w.build_chunk(c, field).unwrap();
+        w.build_chunk(&ChunkKey::new(0, c), field).unwrap();
     }
-    assert!(!w.remove_chunk(IVec3::new(-5, 0, 0)), "not a member");
+    assert!(
+        !w.remove_chunk(&ChunkKey::new(0, IVec3::new(-5, 0, 0))),
+        "not a member"
+    );
     assert!(
         !w.add_chunk(IVec3::new(2, 0, 0)).unwrap(),
         "already a member"
     );
     let fresh = {
         let mut f = unbounded(field, &block(IVec3::new(0, -1, -1), IVec3::new(2, 1, 1)), 8);
-        for c in w.coords() {
-            f.set_threshold(c, w.threshold(c));
+        for c in w.chunks() {
+            f.set_threshold(&c, w.threshold(&c));
         }
         f
     };
-    assert_eq!(w.coords(), fresh.coords());
+    assert_eq!(w.chunks(), fresh.chunks());
     let (a, b) = (w.extract_all(), fresh.extract_all());
     assert_eq!(a, b, "streamed world differs from a fresh one");
     // Open where the loaded block ends, manifold and oriented everywhere.
@@ -323,7 +330,7 @@ fn streaming_chunks_in_and_out_equals_a_fresh_world() {
     let near = w.chunks_near(Vec3::ZERO, 0.1);
     assert_eq!(near[0], IVec3::ZERO, "nearest first");
     assert!(near.iter().all(|&c| {
-        let (lo, hi) = w.chunk_bounds(c);
+        let (lo, hi) = w.chunk_bounds(&ChunkKey::new(0, c));
         Vec3::ZERO.clamp(lo, hi).length() <= 0.1
     }));
 }
@@ -331,19 +338,19 @@ fn streaming_chunks_in_and_out_equals_a_fresh_world() {
 #[test]
 fn chunks_outside_the_world_are_errors() {
     let s = Settings::default();
-    let mut b = ChunkWorld::new(Vec3::ZERO, 0.1, 8, UVec3::splat(2), 0.01, s.clone()).unwrap();
+    let mut b = World::bounded(Vec3::ZERO, 0.1, 8, UVec3::splat(2), 0.01, s.clone()).unwrap();
     let e = b.add_chunk(IVec3::new(2, 0, 0)).unwrap_err().to_string();
     assert!(e.contains("outside the bounded world"), "{e}");
     assert!(b.add_chunk(IVec3::new(-1, 0, 0)).is_err());
-    let mut u = ChunkWorld::unbounded(Vec3::ZERO, 0.1, 32, 0.01, s.clone()).unwrap();
+    let mut u = World::unbounded(Vec3::ZERO, 0.1, 32, 0.01, s.clone()).unwrap();
     let e = u
         .add_chunk(IVec3::new(0, 1 << 26, 0))
         .unwrap_err()
         .to_string();
     assert!(e.contains("2^30"), "{e}");
     assert!(u.add_chunk(IVec3::new(-(1 << 20), 0, 0)).unwrap());
-    assert!(ChunkWorld::unbounded(Vec3::ZERO, 0.1, 0, 0.01, s.clone()).is_err());
-    assert!(ChunkWorld::unbounded(Vec3::ZERO, 0.1, 8, f32::INFINITY, s).is_err());
+    assert!(World::unbounded(Vec3::ZERO, 0.1, 0, 0.01, s.clone()).is_err());
+    assert!(World::unbounded(Vec3::ZERO, 0.1, 8, f32::INFINITY, s).is_err());
 }
 
 #[test]
@@ -355,7 +362,7 @@ fn a_terrain_chunk_retains_at_most_256_kib() {
     // component also keeps its blend: printed below, not held to the target.
     let (field, grid) = kdcontour::scenes::terrain_chunk(32);
     let world = |materials: bool| {
-        let mut w = ChunkWorld::new(
+        let mut w = World::bounded(
             grid.origin,
             grid.cell_size,
             grid.cells.x,
@@ -372,15 +379,15 @@ fn a_terrain_chunk_retains_at_most_256_kib() {
     };
     let with_materials = world(true).retained_bytes();
     let w = world(false);
-    let tree = w.tree(IVec3::ZERO).unwrap();
+    let tree = w.tree(&ChunkKey::new(0, IVec3::ZERO)).unwrap();
     let bytes = w.retained_bytes();
     println!(
         "terrain chunk: {} nodes, {} components, {bytes} bytes retained \
          ({with_materials} with materials)",
-        tree.nodes.len(),
-        tree.comps.len()
+        tree.node_count(),
+        tree.component_count()
     );
-    assert!(tree.materials.is_empty(), "materials off keeps none");
-    assert!(tree.nodes.len() > 2000, "the chunk holds surface");
+    assert!(tree.materials().is_empty(), "materials off keeps none");
+    assert!(tree.node_count() > 2000, "the chunk holds surface");
     assert!(bytes <= 256 * 1024, "{bytes} bytes");
 }

@@ -73,7 +73,7 @@ impl Brush {
 struct Compiled {
     brush: Brush,
     field: Csg,
-    /// Centre and radius beyond which the brush cannot change the field.
+    /// Center and radius beyond which the brush cannot change the field.
     reach: (Vec3, f32),
     blend: f32,
 }
@@ -157,7 +157,7 @@ impl EditedField {
         EditedField::new(base).with_edits(log.iter().cloned())
     }
 
-    /// Centre and radius of the region the last edit can change.
+    /// Center and radius of the region the last edit can change.
     pub fn last_reach(&self) -> Option<(Vec3, f32)> {
         self.edits.last().map(|c| c.reach)
     }

@@ -48,7 +48,7 @@ impl Solid {
         Solid::Cone,
     ];
 
-    /// The solid as a scene node, centred at the origin.
+    /// The solid as a scene node, centerd at the origin.
     pub fn node(self) -> CsgNode {
         let center = Vec3::ZERO;
         let cube = Vec3::splat(0.4);

@@ -29,7 +29,7 @@ impl TriMesh {
 /// Triangles per BVH leaf.
 const LEAF: usize = 4;
 /// A BVH node is approximated by its dipole when the query is farther than this
-/// many node radii from its centre. At 2 the winding number is within 1e-2 of the
+/// many node radii from its center. At 2 the winding number is within 1e-2 of the
 /// exact sum on the test meshes, far below the 0.5 that decides the sign.
 const BETA: f32 = 2.0;
 
@@ -43,7 +43,7 @@ struct Node {
     /// Area-weighted normal sum (half the cross products).
     normal: Vec3,
     /// Area-weighted centroid.
-    centre: Vec3,
+    center: Vec3,
     radius: f32,
 }
 
@@ -174,7 +174,7 @@ impl MeshSdf {
         let mut stack = vec![0u32];
         while let Some(i) = stack.pop() {
             let nd = &self.nodes[i as usize];
-            let r = nd.centre - p;
+            let r = nd.center - p;
             let dist = r.length();
             if dist > BETA * nd.radius {
                 w +=
@@ -208,7 +208,7 @@ fn build(
     let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
     let (mut clo, mut chi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
     let mut normal = Vec3::ZERO;
-    let mut centre = Vec3::ZERO;
+    let mut center = Vec3::ZERO;
     let mut area = 0.0;
     for t in &tris[start..end] {
         let (a, b, c) = (v[t[0] as usize], v[t[1] as usize], v[t[2] as usize]);
@@ -220,15 +220,15 @@ fn build(
         let n = (b - a).cross(c - a) * 0.5;
         let ar = n.length();
         normal += n;
-        centre += ct * ar;
+        center += ct * ar;
         area += ar;
     }
-    let centre = if area > 0.0 {
-        centre / area
+    let center = if area > 0.0 {
+        center / area
     } else {
         (lo + hi) * 0.5
     };
-    let radius = (hi - centre).max(centre - lo).length();
+    let radius = (hi - center).max(center - lo).length();
     nodes.push(Node {
         lo,
         hi,
@@ -236,7 +236,7 @@ fn build(
         b: end as u32,
         leaf: true,
         normal,
-        centre,
+        center,
         radius,
     });
     if end - start > LEAF {

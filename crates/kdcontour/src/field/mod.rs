@@ -62,7 +62,7 @@ pub trait Field: Send + Sync {
     /// sampling a box the bound proves to be of one sign
     /// ([`crate::hermite::one_sign`]).
     ///
-    /// The default uses [`Field::lipschitz`]: the value at the box's centre, plus
+    /// The default uses [`Field::lipschitz`]: the value at the box's center, plus
     /// or minus `L` times its half-diagonal.
     fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
         let l = self.lipschitz().filter(|l| l.is_finite() && *l > 0.0)?;

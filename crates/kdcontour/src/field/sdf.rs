@@ -1,4 +1,4 @@
-//! Exact signed distance primitives, centred at the origin, with analytic gradients.
+//! Exact signed distance primitives, centerd at the origin, with analytic gradients.
 //!
 //! Formulas follow Inigo Quilez's catalogue of distance functions. Round shapes
 //! (cylinder, capsule, torus, cone) have their axis along +Y.
@@ -27,7 +27,7 @@ pub enum Primitive {
     },
     /// Torus around the Y axis.
     Torus {
-        /// Distance from the centre to the tube's centre line.
+        /// Distance from the center to the tube's center line.
         major_radius: f32,
         /// Tube radius.
         minor_radius: f32,

@@ -34,7 +34,7 @@ pub enum Inside {
 pub struct SampledVolume {
     /// Voxels along x, y, z (each at least 2).
     pub dims: UVec3,
-    /// Distance between voxel centres along x, y, z (world units, positive).
+    /// Distance between voxel centers along x, y, z (world units, positive).
     pub spacing: Vec3,
     /// World position of voxel (0, 0, 0).
     pub origin: Vec3,

@@ -19,7 +19,8 @@ use rayon::prelude::*;
 mod sample;
 mod vertex;
 
-pub use sample::{one_sign, sample, FAR};
+pub(crate) use crate::grid::FAR;
+pub use sample::{one_sign, sample};
 
 /// A cell with at least one sign change.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -37,33 +38,33 @@ pub struct ActiveCell {
 /// Hermite data of a sampled grid.
 pub struct Hermite {
     /// The grid.
-    pub grid: Grid,
+    pub(crate) grid: Grid,
     /// One bit per corner: set when the corner is outside (value >= 0).
-    pub outside: Vec<u64>,
+    pub(crate) outside: Vec<u64>,
     /// Active cells, ordered by linear index (x fastest).
-    pub cells: Vec<ActiveCell>,
+    pub(crate) cells: Vec<ActiveCell>,
     /// QEF of each cell patch (grid units).
-    pub patch_qef: Vec<Qef>,
+    pub(crate) patch_qef: Vec<Qef>,
     /// Sum of the unit normals of each patch's crossings.
-    pub patch_normal: Vec<Vec3>,
+    pub(crate) patch_normal: Vec<Vec3>,
     /// Each patch's vertex in its cell (grid units, before
     /// [`crate::comp::Comp::pack`] rounds it): the QEF's minimiser, moved toward
     /// the mass point where that would fold a quad (module `vertex`).
-    pub patch_vertex: Vec<Vec3>,
+    pub(crate) patch_vertex: Vec<Vec3>,
     /// Number of edges with a sign change.
-    pub crossings: usize,
+    pub(crate) crossings: usize,
     /// Every edge crossing, in a fixed order.
-    pub edges: Vec<EdgeCrossing>,
+    pub(crate) edges: Vec<EdgeCrossing>,
     /// Per active cell, when the field has materials and
     /// [`Settings::material_borders`] is on: the dominant material of every
     /// crossing on the edges of the active cells within one cell of it (the
     /// 3x3x3 block around it), or [`material::MIXED`] where they differ (a
     /// border is near). Empty otherwise.
-    pub cell_material: Vec<u16>,
+    pub(crate) cell_material: Vec<u16>,
     /// With [`Boundary::Capped`] and a solid that reaches the grid's faces, the
     /// grid the caps close (this data's grid less its layer of caps); `None`
     /// otherwise.
-    pub capped: Option<Grid>,
+    pub(crate) capped: Option<Grid>,
 }
 
 /// What [`Hermite::surface`] gives: a field, or a field cut by caps.
@@ -148,6 +149,23 @@ struct Crossing {
     /// The field has no root on the edge: a sample was forced to the other sign
     /// (see [`FORCED_CROSSING_T`]).
     forced: bool,
+}
+
+impl Hermite {
+    /// The grid the data is on (a capped grid's padded one).
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// Cells with a sign change (active cells).
+    pub fn active_cells(&self) -> usize {
+        self.cells.len()
+    }
+
+    /// Edges with a sign change.
+    pub fn crossing_count(&self) -> usize {
+        self.crossings
+    }
 }
 
 impl Hermite {
@@ -554,12 +572,12 @@ fn dilate(
 /// Where on an edge a crossing goes when the field has no root there: a
 /// fraction of the edge away from the end whose sample was forced to the other
 /// sign. A chunk conformed to a coarser neighbour has such samples (the level
-/// rules in [`crate::world::levels`]); a root search from one closes on it, and
+/// rules in [`crate::world`]); a root search from one closes on it, and
 /// every cell around would put its vertex there (zero-area faces). Nearer the
 /// end the level worlds' error and flipped faces drop but slivers grow (camera
 /// levels, five scenes: 0.02 gives 5-690 slivers, 0.5 gives 0-364 and 10-25%
 /// more error); 0.1 is between.
-pub const FORCED_CROSSING_T: f32 = 0.1;
+pub(crate) const FORCED_CROSSING_T: f32 = 0.1;
 
 /// How near a sample on the surface (a field zero at a grid corner to the root
 /// search's tolerance, as a terrain's height field is at its origin) a crossing
@@ -569,7 +587,7 @@ pub const FORCED_CROSSING_T: f32 = 0.1;
 /// keeps them apart and moves the crossing by that much. Crossings near other
 /// samples stay where the field puts them (nudging them all would tilt the planes
 /// of flat faces: the box's adaptive meshes grew 12%).
-pub const END_T: f32 = 0.01;
+pub(crate) const END_T: f32 = 0.01;
 
 /// The crossing along `p0 + t * dir`, `t` in `[0, 1]`, between samples `v0` and `v1`
 /// of opposite sign: linear interpolation refined by up to `iterations` steps of the

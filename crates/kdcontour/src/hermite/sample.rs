@@ -6,20 +6,16 @@
 use super::check_grid;
 use crate::error::{Error, Result};
 use crate::field::Field;
-use crate::grid::Grid;
+use crate::grid::{Grid, FAR};
 use crate::settings::Settings;
 use glam::UVec3;
 use rayon::prelude::*;
 
 /// Cells per side of the blocks that sampling may skip (fields with a Lipschitz
-/// bound only). Measured at res 128 (block centres included): 4 evaluates 12.6% of
+/// bound only). Measured at res 128 (block centers included): 4 evaluates 12.6% of
 /// the corners of `disk_pole` and 9.3% of `csg_mix`; 8 evaluates 28.7% / 16.1% (its
-/// blocks are rarely far enough), 2 evaluates 21.3% / 15.3% (too many centres).
+/// blocks are rarely far enough), 2 evaluates 21.3% / 15.3% (too many centers).
 const SKIP_BLOCK: u32 = 4;
-
-/// The magnitude [`sample`] gives corners it proved far from the surface without
-/// evaluating them (their sign is exact, their value is not).
-pub const FAR: f32 = f32::MAX;
 
 /// The samples of `grid` when [`Field::bound`] over its box grown by `margin`
 /// cells (plus one more, for the rounding of corner positions) proves one strict
@@ -50,9 +46,9 @@ pub fn one_sign(
 /// span that [`Field::bound`] cannot prove one-signed get [`FAR`] with their
 /// sign instead of an evaluation.
 ///
-/// With a Lipschitz bound `L`, the field is first evaluated at the centre of every
-/// block of `SKIP_BLOCK`³ cells; a block whose centre value exceeds `L` times its
-/// half-diagonal holds no surface, and its corners get [`FAR`] with the centre's
+/// With a Lipschitz bound `L`, the field is first evaluated at the center of every
+/// block of `SKIP_BLOCK`³ cells; a block whose center value exceeds `L` times its
+/// half-diagonal holds no surface, and its corners get [`FAR`] with the center's
 /// sign instead of an evaluation. Only their sign is meaningful: a crossing next to
 /// such a corner evaluates it on the field.
 pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Vec<f32>> {
@@ -160,17 +156,17 @@ fn sample_skipping(field: &dyn Field, grid: &Grid, l: f32, values: &mut [f32]) {
     let b = SKIP_BLOCK;
     let nb = (n + UVec3::splat(b - 1)) / b;
     let half_diag = (b as f32 * 0.5) * 3f32.sqrt() * grid.cell_size;
-    // Block centre values, or NaN where the block may hold surface.
-    let centres: Vec<f32> = (0..nb.z)
+    // Block center values, or NaN where the block may hold surface.
+    let centers: Vec<f32> = (0..nb.z)
         .into_par_iter()
         .flat_map_iter(|bz| {
             (0..nb.y).flat_map(move |by| {
                 (0..nb.x).map(move |bx| {
                     let lo = UVec3::new(bx, by, bz) * b;
                     let hi = (lo + UVec3::splat(b)).min(n);
-                    let centre = grid.to_world((lo + hi).as_vec3() * 0.5);
+                    let center = grid.to_world((lo + hi).as_vec3() * 0.5);
                     let half = (hi - lo).as_vec3().length() * 0.5 * grid.cell_size;
-                    let v = field.value(centre);
+                    let v = field.value(center);
                     let far = v.is_finite() && v.abs() > l * half.min(half_diag) * 1.001 + 1e-7;
                     if far {
                         v
@@ -195,7 +191,7 @@ fn sample_skipping(field: &dyn Field, grid: &Grid, l: f32, values: &mut [f32]) {
                     for by in block_range(y, b, nb.y) {
                         let base = (nb.x * (by + nb.y * bz)) as usize;
                         for (bx, known) in row_sign.iter_mut().enumerate() {
-                            let v = centres[base + bx];
+                            let v = centers[base + bx];
                             if known.is_nan() && !v.is_nan() {
                                 *known = FAR.copysign(v);
                             }

@@ -37,8 +37,8 @@ use super::ActiveCell;
 use crate::cell::CellTables;
 use crate::comp::Comp;
 use crate::facing::Facing;
+use crate::geometry::tritri::{contact, Contact, Tolerance};
 use crate::qef::Qef;
-use crate::validate::tritri::{contact, Contact, Tolerance};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -150,7 +150,7 @@ pub(super) fn cell_vertices(
 fn quad_faces(q: &DualQuad, vertex: &[Vec3], unit: &[Vec3], facing: &Facing) -> bool {
     let corners = q.patches.map(|i| (vertex[i as usize], unit[i as usize]));
     facing.polygon(&corners, q.facing, |t| {
-        crate::validate::face_normal(t).dot(q.normal.as_dvec3()) >= 0.0
+        crate::geometry::face_normal(t).dot(q.normal.as_dvec3()) >= 0.0
     })
 }
 
@@ -208,8 +208,8 @@ impl Around {
     /// the mesh takes depends on the normals it rounds), at `vertex`.
     fn crossings(&self, p: u32, quads: &[DualQuad], vertex: &[Vec3]) -> usize {
         let tol = Tolerance {
-            length: crate::validate::INTERSECTION_TOL_CELLS,
-            area: crate::validate::ZERO_AREA_CELLS2,
+            length: crate::geometry::INTERSECTION_TOL_CELLS,
+            area: crate::geometry::ZERO_AREA_CELLS2,
         };
         // The quads of every patch of the cells of the quads around `p` (a cell's
         // other patches are other sheets through it).

@@ -258,7 +258,7 @@ pub(super) fn decode(bytes: &[u8], code: i16, count: usize, big_endian: bool) ->
     })
 }
 
-/// The share of a voxel `step` wide centred at `r` (in the ellipsoid's frame)
+/// The share of a voxel `step` wide centerd at `r` (in the ellipsoid's frame)
 /// inside the ellipsoid of semi-axes `axes`: a ramp across one voxel over the
 /// first-order signed distance to its surface.
 fn coverage(r: Vec3, axes: Vec3, step: f32) -> f32 {
@@ -278,7 +278,7 @@ fn coverage(r: Vec3, axes: Vec3, step: f32) -> f32 {
 /// plus deterministic scanner noise of 1% of the skull's density. At iso 1.5 the
 /// surface is the thin skull (inside above).
 ///
-/// Each voxel holds the density at its centre, so a voxel is inside an ellipsoid
+/// Each voxel holds the density at its center, so a voxel is inside an ellipsoid
 /// or out and the surface between voxels is a staircase (as in a segmented
 /// scan); [`phantom_scanned`] holds each voxel's partial volume instead.
 ///
@@ -289,7 +289,7 @@ pub fn phantom(n: u32) -> SampledVolume {
 }
 
 /// [`phantom`] as a scanner measures it: each voxel holds the density averaged
-/// over the voxel (partial volume), not the density at its centre. A voxel an
+/// over the voxel (partial volume), not the density at its center. A voxel an
 /// ellipsoid's surface crosses holds the share of it inside, so the surface
 /// between voxels is where the scanner saw it rather than a staircase of whole
 /// voxels. The share is that of the voxel on the inside of the surface's
@@ -313,7 +313,7 @@ pub const PHANTOM_SCANNED_ISO: f32 = 1.3;
 /// [`phantom`] or, with `partial`, [`phantom_scanned`].
 fn shepp_logan(n: u32, partial: bool) -> SampledVolume {
     let n = n.max(2);
-    // (semi-axes a, b, c; centre x, y, z; rotation about z in degrees; density)
+    // (semi-axes a, b, c; center x, y, z; rotation about z in degrees; density)
     const E: [[f32; 8]; 10] = [
         [0.69, 0.92, 0.81, 0.0, 0.0, 0.0, 0.0, 2.0],
         [0.6624, 0.874, 0.78, 0.0, -0.0184, 0.0, 0.0, -0.98],

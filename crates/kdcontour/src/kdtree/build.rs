@@ -1,29 +1,26 @@
 //! The build driver: the top-down recursion of section 4.3 over a node arena, with
 //! the bottom-up clustering of section 5 run on each node as the recursion returns
-//! (one post-order pass), and the sample -> Hermite -> tree pipeline
-//! ([`KdTree::build`]).
+//! (one post-order pass), and the fold guard over the result ([`build_in`]).
 //!
 //! Each node partitions its list of active cells at the plane [`super::split`] picks
 //! (or at the midpoint, for the octree baseline), builds its halves (in parallel
 //! near the root, each into its own arena), then asks [`super::cluster`] whether it
 //! may stand in for them. Cell leaves are made here.
 
+use super::arena::{Arena, Ctx, NO_EDGE};
 use super::cluster::cluster;
 use super::fold::refuse_folding_leaves;
 use super::split::kd_split;
-use super::{BuildStats, Comp, KdNode, KdTree, CELL, NONE};
+use super::{Comp, KdNode, KdTree, CELL, NONE};
 use crate::boundary::open_faces;
 use crate::cell::{edge_corners, CellTables};
-use crate::error::Result;
 use crate::field::Field;
-use crate::grid::Grid;
 use crate::hermite::Hermite;
 use crate::material;
 use crate::qef::Qef;
-use crate::settings::{Partition, Settings};
+use crate::settings::Partition;
 use glam::Vec3;
 use rayon::prelude::*;
-use std::time::Instant;
 
 /// Nodes above this depth with at least [`PARALLEL_CELLS`] active cells build their
 /// halves with `rayon::join`, each into its own arena that is appended afterwards
@@ -34,108 +31,13 @@ const PARALLEL_DEPTH: u32 = 4;
 /// See [`PARALLEL_DEPTH`]; below this the join overhead exceeds the work.
 const PARALLEL_CELLS: usize = 1024;
 
-/// The nodes and components built so far (one per parallel task near the root).
-pub(super) struct Arena {
-    /// Nodes, children before their parent.
-    pub(super) nodes: Vec<KdNode>,
-    /// Components, packed against their node's box as they are made (their
-    /// `parent` is filled in when the parent clusters).
-    pub(super) comps: Vec<Comp>,
-    /// Per component (build time only): the full-precision sum of its crossings'
-    /// normals, which the parent's components sum in turn.
-    pub(super) normals: Vec<Vec3>,
-    /// Per node (build time only): for each of its 12 edges, the cell coordinate
-    /// along the edge of its one sign change, or [`NO_EDGE`]. Only meaningful for
-    /// clusterable nodes, whose edges have at most one change each.
-    pub(super) edges: Vec<[u16; 12]>,
-    /// Per node (build time only), when the Hermite data tracks materials
-    /// ([`Hermite::cell_material`]): the material code of its cells (one
-    /// dominant material, or [`material::MIXED`] where a border is near).
-    pub(super) material: Vec<u16>,
-}
-
-/// An edge without a sign change in [`Arena::edges`].
-pub(super) const NO_EDGE: u16 = u16::MAX;
-
-impl Arena {
-    fn new() -> Self {
-        Arena {
-            nodes: Vec::new(),
-            comps: Vec::new(),
-            normals: Vec::new(),
-            edges: Vec::new(),
-            material: Vec::new(),
-        }
-    }
-
-    /// Appends `other`, fixing its indices; returns the offset of its nodes.
-    fn append(&mut self, other: Arena) -> u32 {
-        let noff = self.nodes.len() as u32;
-        let coff = self.comps.len() as u32;
-        self.nodes.extend(other.nodes.into_iter().map(|mut n| {
-            for c in n.children.iter_mut() {
-                if *c != NONE {
-                    *c += noff;
-                }
-            }
-            n.comp_start += coff;
-            n
-        }));
-        self.comps.extend(other.comps);
-        self.normals.extend(other.normals);
-        self.edges.extend(other.edges);
-        self.material.extend(other.material);
-        noff
-    }
-}
-
-/// What every node of one build reads.
-pub(super) struct Ctx<'a> {
-    /// The Hermite data the tree is built on.
-    pub(super) h: &'a Hermite,
-    /// How boxes are split.
-    pub(super) partition: Partition,
-    /// Per active cell: the sum of its patches' QEFs.
-    pub(super) cell_qef: Vec<Qef>,
-    /// The Dual Marching Cubes tables.
-    pub(super) tables: &'static CellTables,
-    /// Per active cell: the grid faces it lies on that the surface crosses there
-    /// ([`crate::boundary::open_faces`]).
-    pub(super) open: Vec<u8>,
-}
-
-impl Ctx<'_> {
-    /// Whether grid corner `c` is outside.
-    pub(super) fn outside(&self, c: [u32; 3]) -> bool {
-        self.h.is_outside(c)
-    }
-}
-
-/// Builds the retained tree from Hermite data with the paper's k-d partition.
-/// `field` is the field the data was sampled from: the fold guard holds the
-/// clustered polygons to it (`kdtree::fold`).
-pub fn build(h: &Hermite, field: &dyn Field) -> KdTree {
-    build_with(h, field, Partition::KdTree)
-}
-
-/// Builds the retained tree from Hermite data (sampled from `field`) with the
-/// given partition.
-pub fn build_with(h: &Hermite, field: &dyn Field, partition: Partition) -> KdTree {
-    let g = h.grid.cells;
-    build_in(
-        h,
-        field,
-        partition,
-        [0, 0, 0],
-        [g.x as u16, g.y as u16, g.z as u16],
-    )
-}
-
 /// Builds the tree over the cells in the box `core_min..core_max` only (a chunk
 /// inside a grid with a halo: the halo's cells decide the face resolution of the
 /// core's boundary cells but belong to the neighbouring chunk). `field` is the
-/// field the data was sampled from.
-pub fn build_in(
+/// field the data was sampled from: the fold guard holds the clustered polygons
+/// to it (`kdtree::fold`). The pipeline's tree stage ([`crate::pipeline::tree`])
+/// is the way in.
+pub(crate) fn build_in(
     h: &Hermite,
     field: &dyn Field,
     partition: Partition,
@@ -208,27 +110,6 @@ pub fn build_in(
     };
     refuse_folding_leaves(&mut tree, h, h.surface(field).field());
     tree
-}
-
-impl KdTree {
-    /// Samples `field` on `grid`, computes Hermite data and builds the retained tree.
-    pub fn build(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<KdTree> {
-        settings.run(|| {
-            let t0 = Instant::now();
-            let h = Hermite::from_field(field, grid, settings)?;
-            let t1 = Instant::now();
-            let mut tree = build_with(&h, field, settings.partition);
-            crate::material::paint_tree(&mut tree, field, settings);
-            let t2 = Instant::now();
-            tree.stats = BuildStats {
-                sample_ms: (t1 - t0).as_secs_f64() * 1e3,
-                build_ms: (t2 - t1).as_secs_f64() * 1e3,
-                active_cells: h.cells.len(),
-                crossings: h.crossings,
-            };
-            Ok(tree)
-        })?
-    }
 }
 
 /// Builds the subtree of `ids` in the box `min..max`. Returns the node and the

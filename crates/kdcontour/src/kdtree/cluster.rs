@@ -16,7 +16,7 @@
 //! 4. [`sum_component_qefs`]: each component's QEF is the sum of its children's,
 //!    and its vertex their minimiser.
 
-use super::build::{Arena, Ctx, NO_EDGE};
+use super::arena::{Arena, Ctx, NO_EDGE};
 use super::{comp_in, Comp, KdNode, NONE};
 use crate::cell::{corner_offset, edge_corners, edge_index, face_corners, NO_COMP};
 use crate::qef::Qef;

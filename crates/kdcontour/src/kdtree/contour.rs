@@ -53,19 +53,13 @@ pub enum Job {
         /// The axis the face is perpendicular to.
         axis: usize,
     },
-    /// The edge along `axis` where four parts meet, given in quadrant order
-    /// (u-, v-), (u+, v-), (u+, v+), (u-, v+) with `u = (axis + 1) % 3`.
+    /// The edge along `axis` where four parts meet, through the lattice line
+    /// `line` (its coordinates on the two axes other than `axis`; the third is
+    /// ignored). One part may fill two quadrants (a coarser chunk whose face the
+    /// line lies on).
     Edge {
-        /// The four parts.
-        parts: [usize; 4],
-        /// The edge's axis.
-        axis: usize,
-    },
-    /// Like [`Job::Edge`], through the lattice line `line` (its coordinates on the
-    /// two axes other than `axis`; the third is ignored). One part may fill two
-    /// quadrants (a coarser chunk whose face the line lies on).
-    EdgeAt {
-        /// The four parts, in [`Job::Edge`]'s quadrant order.
+        /// The four parts, in quadrant order (u-, v-), (u+, v-), (u+, v+),
+        /// (u-, v+) with `u = (axis + 1) % 3`.
         parts: [usize; 4],
         /// The edge's axis.
         axis: usize,
@@ -132,20 +126,7 @@ pub fn contour(parts: &[Part], jobs: &[Job], out: &mut IndexedMesh) {
         match *job {
             Job::Cell(i) => w.cell_proc(root(i)),
             Job::Face { low, high, axis } => w.face_proc([root(low), root(high)], axis),
-            Job::Edge { parts: p, axis } => {
-                let r = p.map(root);
-                if r.iter().any(|x| x.is_none()) {
-                    continue;
-                }
-                // The edge line is the corner where the four boxes meet.
-                let b0 = w.bounds(r[0]);
-                let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
-                let mut line = [0i32; 3];
-                line[u] = b0.1[u];
-                line[v] = b0.1[v];
-                w.edge_job(r, axis, line);
-            }
-            Job::EdgeAt {
+            Job::Edge {
                 parts: p,
                 axis,
                 line,

@@ -5,8 +5,8 @@
 //! - `mod.rs` (here): the retained tree ([`KdTree`], [`KdNode`]) and its queries.
 //! - `build.rs`: the build driver, the top-down recursion of section 4.3 over
 //!   per-task node arenas (parallel near the root, the same tree on any thread
-//!   count), cell leaves, and [`KdTree::build`] (sample -> Hermite -> tree);
-//!   entry points [`build`], [`build_with`], [`build_in`].
+//!   count) and cell leaves; `arena.rs` what one build works in. [`KdTree::build`]
+//!   (the one way to build a tree) runs the stages of [`crate::pipeline`].
 //! - `split.rs`: the split search of section 4.3, the axis and the plane of
 //!   equal-`E1` halves by binary search over probes of slab prefix sums, with the
 //!   shortcut for flat nodes.
@@ -20,54 +20,57 @@
 //! [`Comp`] (the packed dual vertex, [`crate::comp`]) and [`Partition`] (a setting,
 //! [`crate::settings`]) live below this module and are re-exported here.
 
+mod arena;
 mod build;
 mod cluster;
 mod contour;
 mod fold;
+mod paint;
 mod split;
 
 use crate::grid::Grid;
 use glam::Vec3;
 
-pub use crate::comp::Comp;
+pub(crate) use crate::comp::Comp;
 pub use crate::settings::Partition;
-pub use build::{build, build_in, build_with};
-pub use contour::{contour, Job, Part};
+pub(crate) use build::build_in;
+pub(crate) use contour::{contour, Job, Part};
+pub(crate) use paint::paint_tree;
 
 /// Marks a missing child (an empty box pruned during construction).
-pub const NONE: u32 = u32::MAX;
+pub(crate) const NONE: u32 = u32::MAX;
 /// [`KdNode::axis`] of a 1x1x1 cell leaf.
-pub const CELL: u8 = 3;
+pub(crate) const CELL: u8 = 3;
 
 /// One node of the retained tree: a box of cells, split on `axis` at `split`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct KdNode {
+pub(crate) struct KdNode {
     /// Lowest corner (cell coordinates).
-    pub min: [u16; 3],
+    pub(crate) min: [u16; 3],
     /// Highest corner (exclusive cell coordinates = corner coordinates).
-    pub max: [u16; 3],
+    pub(crate) max: [u16; 3],
     /// Low and high child, or [`NONE`].
-    pub children: [u32; 2],
+    pub(crate) children: [u32; 2],
     /// Split axis 0..3, or [`CELL`] for a 1x1x1 leaf.
-    pub axis: u8,
+    pub(crate) axis: u8,
     /// Cell leaves: the corner signs (see [`crate::cell`]).
-    pub config: u8,
+    pub(crate) config: u8,
     /// Cell leaves: the face resolution mask.
-    pub mask: u8,
+    pub(crate) mask: u8,
     /// Number of surface components (0 when not clusterable).
-    pub comp_count: u8,
+    pub(crate) comp_count: u8,
     /// Split plane position (absolute cell coordinate).
-    pub split: u16,
+    pub(crate) split: u16,
     /// Whether the node may stand in for its subtree (section 5).
-    pub clusterable: bool,
+    pub(crate) clusterable: bool,
     /// Whether the partition lets the node be a leaf (the octree baseline only
     /// allows whole octree cells; the k-d tree allows every clusterable node).
-    pub leaf_ok: bool,
+    pub(crate) leaf_ok: bool,
     /// Index of the first component in [`KdTree::comps`].
-    pub comp_start: u32,
+    pub(crate) comp_start: u32,
     /// Largest QEF residual of any component at or below this node (squared grid
     /// units); infinite when not clusterable. Never smaller than a child's.
-    pub error: f32,
+    pub(crate) error: f32,
 }
 
 /// Times and sizes of one build.
@@ -86,27 +89,71 @@ pub struct BuildStats {
 /// The retained discrete k-d tree of one grid.
 pub struct KdTree {
     /// The grid it was built on.
-    pub grid: Grid,
+    pub(crate) grid: Grid,
     /// All nodes; children come before their parent.
-    pub nodes: Vec<KdNode>,
+    pub(crate) nodes: Vec<KdNode>,
     /// Components of all clusterable nodes.
-    pub comps: Vec<Comp>,
+    pub(crate) comps: Vec<Comp>,
     /// The root, or [`NONE`] when the volume has no surface.
-    pub root: u32,
+    pub(crate) root: u32,
     /// One bit per grid corner: set when outside.
-    pub outside: Vec<u64>,
+    pub(crate) outside: Vec<u64>,
     /// How the build went.
-    pub stats: BuildStats,
+    pub(crate) stats: BuildStats,
     /// Per component, when the field has materials: the material at its vertex
-    /// ([`crate::material::paint_tree`]); empty otherwise. Contouring gives each
+    /// (painted by the pipeline, [`crate::pipeline::tree`]); empty otherwise. Contouring gives each
     /// vertex its component's.
-    pub materials: Vec<crate::material::MaterialBlend>,
+    pub(crate) materials: Vec<crate::material::MaterialBlend>,
+}
+
+impl PartialEq for KdTree {
+    /// The same tree: grid, nodes, components, signs and materials (build times
+    /// aside).
+    fn eq(&self, other: &Self) -> bool {
+        self.grid == other.grid
+            && self.nodes == other.nodes
+            && self.comps == other.comps
+            && self.root == other.root
+            && self.outside == other.outside
+            && self.materials == other.materials
+    }
 }
 
 impl KdTree {
+    /// The grid it was built on.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// Nodes in the tree.
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Surface components (dual vertices) of all clusterable nodes.
+    pub fn component_count(&self) -> usize {
+        self.comps.len()
+    }
+
+    /// Whether the grid holds any surface (the tree has a root).
+    pub fn has_surface(&self) -> bool {
+        self.root != NONE
+    }
+
+    /// How the build went (times and sizes).
+    pub fn stats(&self) -> BuildStats {
+        self.stats
+    }
+
+    /// Per component, when the field has materials: the material at its vertex;
+    /// empty otherwise.
+    pub fn materials(&self) -> &[crate::material::MaterialBlend] {
+        &self.materials
+    }
+
     /// Whether corner `c` is outside.
     #[inline]
-    pub fn is_outside(&self, c: [u32; 3]) -> bool {
+    pub(crate) fn is_outside(&self, c: [u32; 3]) -> bool {
         let i = self.grid.corner_index(c[0], c[1], c[2]);
         self.outside[i / 64] >> (i % 64) & 1 == 1
     }
@@ -122,20 +169,20 @@ impl KdTree {
     /// Whether node `n` is a leaf at threshold `e`: a cell, or clusterable with
     /// error at most `e`.
     #[inline]
-    pub fn is_leaf(&self, n: u32, e: f32) -> bool {
+    pub(crate) fn is_leaf(&self, n: u32, e: f32) -> bool {
         let node = &self.nodes[n as usize];
         node.axis == CELL || (node.clusterable && node.leaf_ok && node.error <= e)
     }
 
     /// Component (index within node `x`) of the patch of fine cell `cell` that edge
     /// `edge` of the cell belongs to. `x` must be clusterable and contain `cell`.
-    pub fn comp_of(&self, x: u32, cell: [u32; 3], edge: usize) -> u8 {
+    pub(crate) fn comp_of(&self, x: u32, cell: [u32; 3], edge: usize) -> u8 {
         comp_in(&self.nodes, |i| self.comps[i].parent, x, cell, edge)
     }
 
     /// The box `[lo, hi]` (grid units) of node `n`.
     #[inline]
-    pub fn node_box(&self, n: u32) -> (Vec3, Vec3) {
+    pub(crate) fn node_box(&self, n: u32) -> (Vec3, Vec3) {
         let node = &self.nodes[n as usize];
         (
             Vec3::new(node.min[0] as f32, node.min[1] as f32, node.min[2] as f32),
@@ -144,7 +191,7 @@ impl KdTree {
     }
 
     /// Vertex (grid units) of component `local` of node `n`.
-    pub fn comp_position(&self, n: u32, local: u8) -> Vec3 {
+    pub(crate) fn comp_position(&self, n: u32, local: u8) -> Vec3 {
         let (lo, hi) = self.node_box(n);
         self.comps[(self.nodes[n as usize].comp_start + local as u32) as usize].position(lo, hi)
     }

@@ -11,7 +11,7 @@
 //! res 128 would hold 2.1 M QEFs, 340 MB), and each child's total QEF comes for free
 //! from the prefix.
 
-use super::build::Ctx;
+use super::arena::Ctx;
 use crate::qef::Qef;
 
 thread_local! {
@@ -32,7 +32,7 @@ const FLAT_E1: f64 = 1e-12;
 /// octree triangles, res 64 and 128, thresholds 0.01 and 0.1, same Hermite data),
 /// the paper's rule lost to the octree on smooth round shapes: 1.58 on `sphere` at
 /// 128 / 0.1, 1.04 on `torus` at 64 / 0.1. On a curved patch `E2` at the QEF
-/// minimiser (near the centre of curvature) is largest along the patch normal, so
+/// minimiser (near the center of curvature) is largest along the patch normal, so
 /// it cuts slabs across the patch that never cluster. Evaluating every axis put all
 /// 40 cases below 1 (sphere 0.41 to 0.70, torus 0.38 to 0.62, disk_pole 0.33 to
 /// 0.51, anisotropic 0.008 to 0.018, box 0.58 to 0.67 where the paper's rule gave

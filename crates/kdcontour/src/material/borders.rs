@@ -20,8 +20,8 @@
 
 use super::{MaterialBlend, PURE};
 use crate::field::Field;
+use crate::geometry::CREASE_DEGREES;
 use crate::mesh::IndexedMesh;
-use crate::validate::CREASE_DEGREES;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -51,7 +51,7 @@ pub struct BorderSplit {
 /// between the two: each side's material holds [`SIDE_CELLS`] cells from the
 /// vertex toward that side's faces, and the field's normals at those two points
 /// differ by more than the crease angle `validate` uses
-/// ([`CREASE_DEGREES`](crate::validate::CREASE_DEGREES)), or no face of the
+/// ([`CREASE_DEGREES`](crate::geometry::CREASE_DEGREES)), or no face of the
 /// vertex's own material touches it. One copy per vertex and material, whose
 /// blend is the mean of the faces that use it; every vertex that is split takes,
 /// on each side, the field's normal just on that side (the crease is shaded

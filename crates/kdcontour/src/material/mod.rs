@@ -14,15 +14,12 @@
 //! `material` node ([`crate::CsgNode::Material`]); brushes carry one too
 //! ([`crate::edit::Brush::material`]).
 
+mod attach;
 mod borders;
 
+pub use attach::attach;
 pub use borders::{split_borders, BorderSplit, SIDE_CELLS};
 
-use crate::field::Field;
-use crate::kdtree::KdTree;
-use crate::mesh::IndexedMesh;
-use glam::Vec3;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// The material ids the noise terrain assigns ([`crate::field::terrain`]).
@@ -165,52 +162,6 @@ pub fn colour(id: u8) -> [f32; 3] {
     PALETTE[id as usize % PALETTE.len()]
 }
 
-/// Fills `mesh.materials` with `field`'s material at every vertex, or empties it
-/// when the field has none. Meshers that do not go through a [`KdTree`] built
-/// from the field (the baselines of [`crate::meshers`]) are given materials this
-/// way.
-pub fn attach(mesh: &mut IndexedMesh, field: &dyn Field) {
-    mesh.materials.clear();
-    if field.has_materials() {
-        mesh.materials
-            .par_extend(mesh.positions.par_iter().map(|&p| field.material(p)));
-    }
-}
-
-/// Gives every component of `tree` that can be a leaf its vertex's material
-/// ([`KdTree::materials`]), so contouring the tree (alone, or as a chunk of a
-/// world) gives each vertex the field's material at it. Empties them when the
-/// field has no materials, or `settings` turn materials off
-/// ([`crate::Settings::materials`]).
-pub fn paint_tree(tree: &mut KdTree, field: &dyn Field, settings: &crate::Settings) {
-    tree.materials.clear();
-    if !(settings.materials && field.has_materials()) {
-        return;
-    }
-    let mut out = vec![MaterialBlend::default(); tree.comps.len()];
-    let tree_ref: &KdTree = tree;
-    let spans: Vec<(u32, u32, usize)> = tree_ref
-        .nodes
-        .iter()
-        .enumerate()
-        .filter(|(_, n)| n.comp_count > 0 && (n.axis == crate::kdtree::CELL || n.leaf_ok))
-        .map(|(i, n)| (i as u32, n.comp_start, n.comp_count as usize))
-        .collect();
-    let painted: Vec<(usize, MaterialBlend)> = spans
-        .par_iter()
-        .flat_map_iter(|&(n, start, count)| {
-            (0..count).map(move |k| {
-                let at: Vec3 = tree_ref.grid.to_world(tree_ref.comp_position(n, k as u8));
-                (start as usize + k, field.material(at))
-            })
-        })
-        .collect();
-    for (i, m) in painted {
-        out[i] = m;
-    }
-    tree.materials = out;
-}
-
 /// The weight at which a crossing's dominant material counts toward a border:
 /// two materials that each hold at least this much at crossings within a cell of
 /// each other meet at a hard border, kept crisp. Inside a blend wider than that
@@ -221,14 +172,14 @@ pub const PURE: f32 = 0.75;
 
 /// A region's material code ([`crate::hermite::Hermite::cell_material`]): no
 /// crossing seen.
-pub const UNSET: u16 = u16::MAX - 1;
+pub(crate) const UNSET: u16 = u16::MAX - 1;
 /// A region's material code: crossings of different dominant materials (a
 /// material border runs through it).
-pub const MIXED: u16 = u16::MAX;
+pub(crate) const MIXED: u16 = u16::MAX;
 
 /// The material code of a region holding both `a` and `b` ([`UNSET`] is empty,
 /// [`MIXED`] absorbs; other codes are dominant material ids).
-pub fn combine(a: u16, b: u16) -> u16 {
+pub(crate) fn combine(a: u16, b: u16) -> u16 {
     if a == UNSET {
         b
     } else if b == UNSET || a == b {

@@ -43,7 +43,7 @@
 //!   extract names "simple plots inside" and "simple faces"; we take the
 //!   strongest reading, which makes every padi of a face simple).
 //! - Ambiguous padis (alternating corners) follow Marching Cubes' face rule on the
-//!   unit faces inside them; the paper subsamples the padi's centre, which our
+//!   unit faces inside them; the paper subsamples the padi's center, which our
 //!   sign-only samples cannot do for a padi one cell wide.
 //! - Ears: the least gradient deviation wins, after avoiding new edges that lie
 //!   in a box face (see `triangulate.rs`).

@@ -175,7 +175,7 @@ pub(super) fn iso_lines(c: &Climb, padi: &Padi, side: u32, segs: &mut Vec<(u64, 
 /// joined along unit edges, and across each ambiguous unit face as the Marching
 /// Cubes face rule resolves it ([`crate::cell`]'s resolution mask).
 ///
-/// The paper resolves ambiguous padis by subsampling their centre; with only
+/// The paper resolves ambiguous padis by subsampling their center; with only
 /// signs of samples at hand we follow the unit faces instead, so a padi never
 /// joins what the uniform mesh separates.
 fn outside_joined(c: &Climb, padi: &Padi, out: [bool; 4]) -> bool {

@@ -530,7 +530,7 @@ fn refined_max(
 }
 
 /// [`surface_to_mesh`] on the edges of one grid, block by block in parallel.
-/// With a Lipschitz bound, a block whose centre is farther from the surface than
+/// With a Lipschitz bound, a block whose center is farther from the surface than
 /// its half diagonal allows has no crossing and is not sampled. With `refine`,
 /// cells that may hold surface ([`may_hold_surface`]) add their [`refined_max`]
 /// to the maximum.

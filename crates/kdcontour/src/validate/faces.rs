@@ -3,13 +3,10 @@
 
 use super::distance::{to_surface, DISTANCE_CAP_CELLS};
 use crate::field::Field;
+use crate::geometry::{face_normal, opposes, ZERO_AREA_CELLS2};
 use glam::{DVec3, Vec3};
 use std::collections::HashSet;
 
-/// A triangle with less area than this many square cells has zero area (f32
-/// rounding of a collinear triangle one cell long at coordinates up to 64 cells
-/// leaves about 1e-6; the thinnest 5° sliver on a one-cell edge has 0.02).
-pub const ZERO_AREA_CELLS2: f64 = 1e-5;
 /// A triangle whose smallest angle is below this many degrees is a sliver.
 pub const SLIVER_DEGREES: f64 = 5.0;
 /// Up to this many cells the error is the first-order `|f| / |∇f|`; beyond it (or
@@ -122,25 +119,6 @@ pub(crate) fn against_field(
         max_vertex_error,
         flipped,
     }
-}
-
-/// The (unnormalised) normal of triangle `t`, counter-clockwise seen from its
-/// front, in f64.
-pub(crate) fn face_normal([a, b, c]: [Vec3; 3]) -> DVec3 {
-    (b.as_dvec3() - a.as_dvec3()).cross(c.as_dvec3() - a.as_dvec3())
-}
-
-/// Whether a face of normal `normal` is flipped against the field's gradient `g`
-/// at its centroid: they point more than 90 degrees apart. The one definition
-/// the checker counts and the mesher's guards keep (`hermite::vertex`,
-/// `kdtree::fold`).
-pub(crate) fn opposes(normal: DVec3, g: Vec3) -> bool {
-    g.is_finite() && normal.dot(g.as_dvec3()) < 0.0
-}
-
-/// Whether triangle `t` (world units) is flipped ([`opposes`] at its centroid).
-pub(crate) fn flipped(field: &dyn Field, t: [Vec3; 3]) -> bool {
-    opposes(face_normal(t), field.gradient((t[0] + t[1] + t[2]) / 3.0))
 }
 
 /// The f64 corners of triangle `t`.

@@ -19,6 +19,7 @@
 
 use super::faces::corners;
 use crate::field::Field;
+use crate::geometry::CREASE_DEGREES;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -28,9 +29,6 @@ pub const FOLD_BUCKET_DEGREES: [f32; 8] = [10.0, 20.0, 30.0, 45.0, 60.0, 90.0, 1
 /// A face whose normal is more than this many degrees from the gradient, away
 /// from creases, is folded.
 pub const FOLD_DEGREES: f32 = 60.0;
-/// The gradient turning by more than this many degrees within a cell of a face's
-/// centroid marks a crease there.
-pub const CREASE_DEGREES: f32 = 30.0;
 
 /// The fold measure of a mesh against its field (what counts as a fold and a
 /// crease: [`FOLD_DEGREES`], [`CREASE_DEGREES`]).

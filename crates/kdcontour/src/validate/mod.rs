@@ -50,12 +50,12 @@ mod faces;
 mod folds;
 mod materials;
 mod spatial;
-pub(crate) mod tritri;
 
+use crate::geometry::tritri;
+pub use crate::geometry::{CREASE_DEGREES, INTERSECTION_TOL_CELLS, ZERO_AREA_CELLS2};
 pub use distance::{DISTANCE_CAP_CELLS, LOST_CELLS};
-pub(crate) use faces::{face_normal, flipped};
-pub use faces::{SLIVER_DEGREES, ZERO_AREA_CELLS2};
-pub use folds::{Folds, CREASE_DEGREES, FOLD_BUCKET_DEGREES, FOLD_DEGREES};
+pub use faces::SLIVER_DEGREES;
+pub use folds::{Folds, FOLD_BUCKET_DEGREES, FOLD_DEGREES};
 pub use materials::Materials;
 
 use crate::field::Field;
@@ -63,9 +63,6 @@ use crate::grid::Grid;
 use crate::mesh::IndexedMesh;
 use glam::Vec3;
 use std::collections::HashMap;
-
-/// Coplanarity and crossing tolerance of the intersection test, in cells.
-pub const INTERSECTION_TOL_CELLS: f64 = 1e-3;
 
 /// What [`validate`] found.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
@@ -381,7 +378,7 @@ fn intersections(
 ) -> Intersections {
     let tol = tritri::Tolerance {
         length: INTERSECTION_TOL_CELLS * cell as f64,
-        area: faces::ZERO_AREA_CELLS2 * (cell as f64).powi(2),
+        area: ZERO_AREA_CELLS2 * (cell as f64).powi(2),
     };
     let hits = grid.pairs(|a, b| {
         let (ta, tb) = (tris[a as usize], tris[b as usize]);

@@ -1,12 +1,14 @@
-//! The samples of a chunk in a level layout: the field, except where the chunk
-//! meets a chunk of another level (the rules are in [`super::levels`]).
+//! A chunk's build ([`ChunkBuild`]): its samples (the field, except where the
+//! chunk meets a chunk of another level: the rules are in [`super`]'s docs), then
+//! the chunk pipeline ([`crate::kdtree::pipeline`]).
 
 use super::layout::{ChunkKey, Layout};
 use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::grid::Grid;
 use crate::hermite::{self, Hermite};
-use crate::kdtree::{self, KdTree};
+use crate::kdtree::KdTree;
+use crate::pipeline::{self, Cells};
 use crate::Settings;
 use glam::{IVec3, UVec3, Vec3};
 use std::cell::Cell;
@@ -32,10 +34,10 @@ impl Neighbourhood {
     }
 }
 
-/// A chunk build detached from its world (see
-/// [`super::levels::LevelWorld::chunk_build`]).
+/// A chunk build detached from its world (see [`super::World::chunk_build`]), to
+/// run on any thread.
 #[derive(Clone, Debug)]
-pub struct LevelBuild {
+pub struct ChunkBuild {
     /// The chunk.
     pub key: ChunkKey,
     /// Its grid (cells of its level, one cell of halo).
@@ -47,7 +49,7 @@ pub struct LevelBuild {
     /// Build settings.
     pub settings: Settings,
     /// The field's samples of `grid` from an earlier build of this chunk, kept
-    /// by its world ([`super::levels::LevelWorld::keep_samples`]): a chunk
+    /// by its world ([`super::World::keep_samples`]): a chunk
     /// rebuilt because a neighbour changed level conforms these again instead
     /// of sampling. They must come from the field the build is given.
     pub kept: Option<Arc<[f32]>>,
@@ -66,34 +68,26 @@ pub struct BuiltChunk {
 /// them (none when nothing was sampled).
 type Sampled = (Vec<f32>, Option<Arc<[f32]>>);
 
-/// Fine cells past its grid that conforming reads ([`LevelBuild::conformed`]).
+/// Fine cells past its grid that conforming reads ([`ChunkBuild::conformed`]).
 const CONFORM_MARGIN: u32 = 3;
 
 /// The smallest negative sample: inside, and the root search on an edge from it
 /// starts at it and moves along the field.
 const TINY: f32 = -f32::MIN_POSITIVE;
 
-impl LevelBuild {
+impl ChunkBuild {
     /// Samples the field (with the level rules) and builds the chunk's tree.
     pub fn run(&self, field: &dyn Field) -> Result<KdTree> {
         Ok(self.build(field)?.tree)
     }
 
-    /// [`LevelBuild::run`], also returning the field's samples to keep for the
+    /// [`ChunkBuild::run`], also returning the field's samples to keep for the
     /// next build of the chunk.
     pub fn build(&self, field: &dyn Field) -> Result<BuiltChunk> {
         self.settings.run(|| {
             let (values, samples) = self.sampled(field)?;
             let h = Hermite::new(field, &self.grid, &values, &self.settings)?;
-            let r = self.res as u16;
-            let mut tree = kdtree::build_in(
-                &h,
-                field,
-                self.settings.partition,
-                [1, 1, 1],
-                [r + 1, r + 1, r + 1],
-            );
-            crate::material::paint_tree(&mut tree, field, &self.settings);
+            let tree = pipeline::tree(&h, field, &self.settings, Cells::Core(self.res));
             Ok(BuiltChunk { tree, samples })
         })?
     }
@@ -110,15 +104,19 @@ impl LevelBuild {
         Ok(self.sampled(field)?.0)
     }
 
-    /// [`LevelBuild::samples`] and the field's samples they came from (taken
-    /// from [`LevelBuild::kept`] when it has them).
+    /// [`ChunkBuild::samples`] and the field's samples they came from (taken
+    /// from [`ChunkBuild::kept`] when it has them).
     fn sampled(&self, field: &dyn Field) -> Result<Sampled> {
         let inner = match &self.kept {
             Some(kept) => kept.clone(),
             None => {
-                if let Some(mut v) =
-                    hermite::one_sign(field, &self.grid, CONFORM_MARGIN, &self.settings)?
-                {
+                // Only a chunk that conforms reads the field past its grid.
+                let margin = if self.neighbourhood.coarser.is_empty() {
+                    0
+                } else {
+                    CONFORM_MARGIN
+                };
+                if let Some(mut v) = hermite::one_sign(field, &self.grid, margin, &self.settings)? {
                     self.force_halo(&mut v);
                     return Ok((v, None));
                 }
@@ -144,12 +142,12 @@ impl LevelBuild {
         Ok((values, Some(inner)))
     }
 
-    /// Rule 1 (see [`super::levels`]): on the boundary of a coarser neighbour, a
+    /// Rule 1 (see [`super`]): on the boundary of a coarser neighbour, a
     /// coarse edge's midpoint takes its ends' sign where the edge has no crossing;
     /// where it has one, it is inside if a coarse face around the edge is
     /// ambiguous, else it keeps the field's sign (the fine crossing is then in the
-    /// half that holds the field's root). A coarse face's centre follows
-    /// [`centre_inside`]. The rules read up to three fine cells past the grid,
+    /// half that holds the field's root). A coarse face's center follows
+    /// [`center_inside`]. The rules read up to three fine cells past the grid,
     /// so the coarse corners and midpoints around its own points are read from
     /// samples computed as their owners compute them; the grid is sampled, and
     /// the points past it are evaluated when first read (only around the coarse
@@ -263,7 +261,7 @@ impl LevelBuild {
                                 mid(p + eb, a),
                                 mid(p - ea, b),
                             ];
-                            let inside = centre_inside(corner, mids);
+                            let inside = center_inside(corner, mids);
                             let v = real(p);
                             let around: Vec<f32> = corner.iter().chain(&mids).copied().collect();
                             if (v < 0.0) == inside {
@@ -314,14 +312,14 @@ impl LevelBuild {
     }
 }
 
-/// Whether a coarse face's centre is inside, from its corners and edge midpoints
+/// Whether a coarse face's center is inside, from its corners and edge midpoints
 /// (both in cyclic order, midpoint `i` between corners `i` and `i + 1`): inside
-/// on an ambiguous face (its inside corners join through the centre, as the
+/// on an ambiguous face (its inside corners join through the center, as the
 /// coarse side resolves it); otherwise the sign that leaves no fine quarter of
-/// the face ambiguous and joins the centre to a midpoint: the midpoints' sign
+/// the face ambiguous and joins the center to a midpoint: the midpoints' sign
 /// when a corner's two midpoints both differ from it, else inside when any
 /// midpoint is.
-fn centre_inside(corner: [f32; 4], mids: [f32; 4]) -> bool {
+fn center_inside(corner: [f32; 4], mids: [f32; 4]) -> bool {
     let c = corner.map(|v| v < 0.0);
     let m = mids.map(|v| v < 0.0);
     if c[0] == c[2] && c[1] == c[3] && c[0] != c[1] {

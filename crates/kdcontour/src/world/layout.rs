@@ -1,13 +1,15 @@
-//! Level layouts: which chunk, at which level, covers each part of a region (an
-//! octree of chunks).
+//! Layouts: which chunk, at which level, covers each part of a region (an octree
+//! of chunks), or, for streaming terrain, an open set of level-0 chunks.
 //!
 //! A chunk at level `k` covers `2^k` level-0 chunks per axis and sits at a
 //! multiple of `2^k` level-0 chunks, so every chunk is an octree cell and the
 //! leaves of a layout tile its region. A layout is **balanced** when every two
 //! chunks that touch (through a face, an edge or a corner) differ by at most one
 //! level; [`Layout::check`] says whether it covers its region exactly once and is
-//! balanced, and the constructors ([`Layout::random`], [`Layout::around`]) return
-//! only such layouts.
+//! balanced, and the constructors ([`Layout::uniform`], [`Layout::random`],
+//! [`Layout::around`]) return only such layouts. An **open** layout
+//! ([`Layout::open`]) has no region: its level-0 chunks come and go one by one
+//! ([`super::World::add_chunk`]), and a seam whose neighbour is missing stays open.
 
 use crate::error::{Error, Result};
 use glam::{IVec3, Vec3};
@@ -114,13 +116,21 @@ impl ChunkKey {
     }
 }
 
-/// A set of chunks that tiles a box of level-0 chunks.
+impl std::fmt::Display for ChunkKey {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "level-{} chunk {}", self.level, self.coord)
+    }
+}
+
+/// A set of chunks that tiles a box of level-0 chunks, or an open set of level-0
+/// chunks ([`Layout::open`]).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Layout {
     lo: IVec3,
     hi: IVec3,
     leaves: ChunkSet,
     max_level: u32,
+    open: bool,
 }
 
 /// Small deterministic generator for random layouts (SplitMix64).
@@ -148,9 +158,39 @@ impl Layout {
             hi,
             leaves,
             max_level,
+            open: false,
         };
         layout.check()?;
         Ok(layout)
+    }
+
+    /// An open one-level layout with no chunk: no region, level-0 chunks added and
+    /// removed one by one (streaming terrain around a camera).
+    pub fn open() -> Self {
+        Layout {
+            lo: IVec3::ZERO,
+            hi: IVec3::ZERO,
+            leaves: ChunkSet::default(),
+            max_level: 0,
+            open: true,
+        }
+    }
+
+    /// Whether the layout is open ([`Layout::open`]).
+    pub fn is_open(&self) -> bool {
+        self.open
+    }
+
+    /// Adds level-0 chunk `k` to an open layout; returns whether it is new.
+    pub(crate) fn insert(&mut self, k: ChunkKey) -> bool {
+        debug_assert!(self.open && k.level == 0);
+        self.leaves.insert(k)
+    }
+
+    /// Removes chunk `k` from an open layout; returns whether it was there.
+    pub(crate) fn remove(&mut self, k: &ChunkKey) -> bool {
+        debug_assert!(self.open);
+        self.leaves.remove(k)
     }
 
     /// The region tiled by chunks of level `top` (`lo` and `hi` multiples of
@@ -214,6 +254,7 @@ impl Layout {
             hi,
             leaves: leaves.into_iter().collect(),
             max_level,
+            open: false,
         };
         loop {
             let mut split: Vec<ChunkKey> = layout
@@ -235,12 +276,13 @@ impl Layout {
         Ok(layout)
     }
 
-    /// The region's lowest corner (level-0 chunks).
+    /// The region's lowest corner (level-0 chunks; zero for an open layout).
     pub fn lo(&self) -> IVec3 {
         self.lo
     }
 
-    /// The region's highest corner, exclusive (level-0 chunks).
+    /// The region's highest corner, exclusive (level-0 chunks; zero for an open
+    /// layout).
     pub fn hi(&self) -> IVec3 {
         self.hi
     }
@@ -296,7 +338,7 @@ impl Layout {
     }
 
     fn in_region(&self, k: &ChunkKey) -> bool {
-        k.lo().cmpge(self.lo).all() && k.hi().cmple(self.hi).all()
+        self.open || (k.lo().cmpge(self.lo).all() && k.hi().cmple(self.hi).all())
     }
 
     /// The finest level among the chunks that touch `k` (`k.level` when none is
@@ -350,6 +392,10 @@ impl Layout {
     /// For each face of `k` (`2 * axis + side`), whether the chunks across it are
     /// at another level than `k` (finer or coarser).
     pub fn level_faces(&self, k: &ChunkKey) -> [bool; 6] {
+        if self.max_level == 0 {
+            // One level (an open layout may have holes: no neighbour is no level).
+            return [false; 6];
+        }
         std::array::from_fn(|f| {
             let (a, s) = (f / 2, f % 2);
             let mut dir = IVec3::ZERO;
@@ -360,7 +406,8 @@ impl Layout {
     }
 
     /// Checks that the chunks lie in the region on their own level's grid, cover
-    /// it exactly once, and that touching chunks differ by at most one level.
+    /// it exactly once, and that touching chunks differ by at most one level (of
+    /// an open layout: that every chunk is at level 0).
     pub fn check(&self) -> Result<()> {
         let bad = |reason: String| {
             Err(Error::InvalidSetting {
@@ -368,6 +415,12 @@ impl Layout {
                 reason,
             })
         };
+        if self.open {
+            return match self.leaves.iter().find(|k| k.level != 0) {
+                Some(k) => bad(format!("{k:?} is above level 0 in an open layout")),
+                None => Ok(()),
+            };
+        }
         if !self.lo.cmplt(self.hi).all() {
             return bad(format!("empty region {}..{}", self.lo, self.hi));
         }
@@ -394,7 +447,7 @@ impl Layout {
                 "the chunks cover {volume} of the region's {want} level-0 chunks"
             ));
         }
-        for k in &self.leaves {
+        for k in self.leaves.iter().filter(|k| k.level >= 2) {
             let f = self.finest_touching(k);
             if f + 1 < k.level {
                 return bad(format!("{k:?} touches a chunk of level {f}: not balanced"));

@@ -1,9 +1,9 @@
 //! Camera-driven thresholds: [`Lod`], a chunk's error threshold from its distance
-//! to the camera, and [`ChunkWorld::apply_lod`].
+//! to the camera, and [`World::apply_lod`].
 
-use super::ChunkWorld;
+use super::{ChunkKey, World};
 use crate::error::{Error, Result};
-use glam::{IVec3, Vec3};
+use glam::Vec3;
 
 /// A chunk's threshold from its distance to the camera:
 /// `base * max(1, d / near)^growth`, capped at `max`.
@@ -56,18 +56,17 @@ impl Lod {
     }
 }
 
-impl ChunkWorld {
+impl World {
     /// Sets every chunk's threshold from its distance to `camera` (the nearest point
     /// of its box). Returns the chunks whose threshold changed.
-    pub fn apply_lod(&mut self, camera: Vec3, lod: &Lod) -> Vec<IVec3> {
-        let coords = self.coords();
+    pub fn apply_lod(&mut self, camera: Vec3, lod: &Lod) -> Vec<ChunkKey> {
         let mut changed = Vec::new();
-        for c in coords {
-            let (lo, hi) = self.chunk_bounds(c);
+        for k in self.chunks() {
+            let (lo, hi) = self.chunk_bounds(&k);
             let e = lod.threshold(camera.clamp(lo, hi).distance(camera));
-            if e != self.threshold(c) {
-                self.set_threshold(c, e);
-                changed.push(c);
+            if e != self.threshold(&k) {
+                self.set_threshold(&k, e);
+                changed.push(k);
             }
         }
         changed

@@ -1,95 +1,194 @@
-//! A world of chunks: each chunk is a retained k-d tree over its own box of cells,
-//! the chunk grid is an implicit level above them, and seams between neighbours are
-//! contoured by `face_proc` and `edge_proc` across the chunk roots. Every chunk is
-//! cut at its own threshold, and the seam walk meets each tree at its own cut, so
-//! neighbours at different levels of detail join with no cracks, skirts,
-//! transition cells or shader tricks.
+//! The chunk world: chunks keyed by [`ChunkKey`] (a level and a position), each a
+//! retained k-d tree over its own box of cells, cut at its own threshold, with the
+//! seams between neighbours contoured by `face_proc` and `edge_proc` across the
+//! chunk roots. The seam walk meets each tree at its own cut, so neighbours at
+//! different thresholds and levels join with no cracks, skirts, transition cells or
+//! shader tricks.
+//!
+//! One type serves every kind of volume; only its [`Layout`] differs:
+//! - a **bounded** world ([`World::bounded`]) is a one-level layout that tiles an
+//!   `X x Y x Z` block of chunks;
+//! - an **unbounded** world ([`World::unbounded`]) has an open layout whose level-0
+//!   chunks come and go ([`World::add_chunk`], [`World::remove_chunk`]): terrain
+//!   streamed around a camera. A seam whose neighbour is missing is left open, so
+//!   its mesh is open at the edge of what is loaded;
+//! - a **level** world ([`World::new`] with a layout of several levels, or
+//!   [`World::set_layout`]) has chunks whose cells double with distance: a chunk at
+//!   level `k` has cells of side `cell_size * 2^k` and the same `chunk_res` cells
+//!   per side, so it covers `2^k` level-0 chunks per axis.
+//!
+//! All levels sit on one lattice: a level-`k` sample is the level-0 lattice point
+//! `2^k` times its index, computed in the same way at every level, so where two
+//! chunks' samples coincide they are bitwise the same ([`Grid::offset`]). Chunks
+//! sample one extra layer of cells around their box (the halo), whose cells decide
+//! how the chunk's boundary cells resolve ambiguous faces, so both chunks that share
+//! a face resolve it the same way.
 //!
 //! ## Seam ownership
-//! - The **face seam** between chunk `c` and `c + e_a` (for each axis `a`) belongs
-//!   to `c`, the lower chunk.
-//! - The **edge seam** along axis `a` where chunks `c`, `c + e_u`, `c + e_u + e_v`
-//!   and `c + e_v` meet (`u`, `v` the other two axes) belongs to `c`, the lowest.
+//! - A **face seam** (two chunks whose faces overlap) belongs to the finer chunk;
+//!   between equal levels to the lower one.
+//! - An **edge seam** (the chunks around a stretch of a chunk edge, in quadrant
+//!   order; a coarser chunk may fill two quadrants) belongs to its finest chunk, the
+//!   first in quadrant order among equals: between equal levels, the lowest.
 //!
-//! A chunk's mesh is its interior ([`ChunkWorld::extract_interior`]) plus the seams it
-//! owns ([`ChunkWorld::extract_seams`]). When chunk `c` changes (new threshold, or
-//! rebuilt after an edit), re-extract the interior of `c` and the seams of every
-//! chunk in [`ChunkWorld::seam_owners_touching`]`(c)`: `c` and its up-to-six lower
-//! neighbours. A threshold change never re-samples the field.
+//! A chunk's mesh is its interior plus the seams it owns ([`World::snapshot`],
+//! [`World::extract_interior`], [`World::extract_seams`]). When chunk `c` changes
+//! (new threshold, or rebuilt after an edit), re-extract `c` and the chunks in
+//! [`World::seam_owners_touching`]`(c)`. A threshold change never re-samples the
+//! field.
 //!
-//! Chunks sample one extra layer of cells around their box (the halo). The halo's
-//! cells decide how the chunk's boundary cells resolve ambiguous faces, so both
-//! chunks that share a face resolve it the same way; samples sit on one lattice
-//! ([`Grid::offset`]), so a corner shared by two chunks has bitwise the same value
-//! in both.
+//! ## Level seams
+//! Where a chunk meets one a level coarser, the finer side sees lattice points the
+//! coarse side does not: the midpoints of coarse edges and the centers of coarse
+//! faces. Two rules make both sides see one contour on the shared boundary:
 //!
-//! A chunk whose field bound ([`Field::bound`]) proves all of its samples to be of
+//! 1. **The finer side conforms.** On the closed box of a coarser neighbour, a
+//!    coarse edge's midpoint keeps the field's sign when the coarse edge has a
+//!    crossing (the fine crossing then lies in the half that holds the field's
+//!    root, so it is found on the field) and takes its ends' sign when it has
+//!    none: a coarse edge has one fine crossing exactly when it has a crossing. A
+//!    coarse face's center is inside when the face is ambiguous; otherwise it
+//!    takes the sign that leaves no fine quarter of the face ambiguous and joins
+//!    it to a midpoint ([`conform`]). The fine contour on a coarse face then runs
+//!    between the same coarse edges as the coarse contour: one segment stays one
+//!    curve, and an ambiguous face joins its inside corners through the center.
+//!    Every chunk of the finer level computes the same samples there, so fine
+//!    neighbours agree too.
+//! 2. **Both sides separate.** Across a face whose neighbours are at another
+//!    level, a chunk's halo samples are inside, so every ambiguous face on a level
+//!    seam, coarse or fine, separates its outside corners and joins its inside
+//!    ones: the resolution rule 1 gives the coarse faces.
+//!
+//! The seam walk ([`crate::kdtree::contour`]) places every chunk on the level-0
+//! lattice with its own shift: a coarse node's box is its cells times `2^level`. It
+//! reads a seam line's signs from the finest tree around it, steps along it by that
+//! tree's cells, and maps each fine crossing to each quadrant's leaf: on a coarse
+//! edge to that edge; through the middle of a coarse face (a fine edge from a coarse
+//! edge's midpoint to the face center) to the coarse edge through that midpoint
+//! when it crosses, else to any crossing edge of the face (which then holds a
+//! single segment).
+//!
+//! Chunks whose neighbourhood ([`Neighbourhood`]) changes with a new layout are
+//! rebuilt: [`World::set_layout`] lists them. A level world keeps the field's
+//! samples each chunk was built from ([`World::keep_samples`]), so such a rebuild
+//! applies the rules above to its kept samples instead of sampling the field again;
+//! an edit drops the samples it reaches ([`World::edited`]).
+//!
+//! A chunk whose field bound ([`crate::Field::bound`]) proves all of its samples to be of
 //! one sign (sky far above a terrain, rock far below it) is not sampled: its tree
 //! is built from the signs alone and is the tree sampling would build, with no
-//! surface. Inside a sampled chunk, whole layers the bound proves one-signed are
-//! skipped the same way ([`crate::hermite::sample`]).
+//! surface.
 
+mod build;
 pub mod conform;
 pub mod layout;
-pub mod levels;
 mod lod;
+mod seams;
 
-pub use conform::{BuiltChunk, LevelBuild, Neighbourhood};
+pub use conform::{BuiltChunk, ChunkBuild, Neighbourhood};
 pub use layout::{ChunkKey, ChunkMap, ChunkSet, KeyHasher, Layout};
-pub use levels::{LevelSnapshot, LevelWorld, PreparedLayout, Seam};
 pub use lod::Lod;
+pub use seams::{ChunkSnapshot, Seam};
 
 use crate::error::{Error, Result};
-use crate::field::Field;
+
 use crate::grid::Grid;
-use crate::hermite::Hermite;
-use crate::kdtree::{self, contour, Job, KdTree, Part};
-use crate::mesh::IndexedMesh;
+use crate::kdtree::KdTree;
 use crate::settings::Settings;
+use conform::level_grid;
 use glam::{IVec3, UVec3, Vec3};
-use std::collections::HashMap;
-use std::hash::BuildHasherDefault;
 use std::sync::Arc;
 
 /// Largest `|chunk coordinate| * chunk_res` on any axis: lattice coordinates stay
 /// well inside `i32`.
 const MAX_LATTICE: i64 = 1 << 30;
 
-/// One member chunk: its tree (once built) and its threshold.
+/// One chunk: its tree (once built), the neighbourhood it was built for, its
+/// threshold, and the field's samples it was built from (when kept).
 struct Slot {
     tree: Option<Arc<KdTree>>,
+    built_for: Neighbourhood,
     threshold: f32,
+    samples: Option<Arc<[f32]>>,
 }
 
-/// A set of chunks on one lattice, with retained trees and per-chunk thresholds.
-///
-/// A world is either **bounded** ([`ChunkWorld::new`]: every chunk of an
-/// `X x Y x Z` block starting at chunk `(0, 0, 0)`) or **unbounded**
-/// ([`ChunkWorld::unbounded`]: no chunk until [`ChunkWorld::add_chunk`]; chunk
-/// coordinates may be negative, for terrain that streams around a camera). Seams
-/// are contoured only between member chunks that have trees; a seam whose
-/// neighbour is missing is left open, so an unbounded world's mesh is open at the
-/// edge of what is loaded.
-pub struct ChunkWorld {
+/// A layout with every chunk's neighbourhood worked out, checked and ready to
+/// install with [`World::set_prepared`]: the costly part of a layout change,
+/// which can run on another thread.
+#[derive(Clone, Debug)]
+pub struct PreparedLayout {
+    layout: Layout,
+    neighbourhoods: ChunkMap<Neighbourhood>,
+}
+
+impl PreparedLayout {
+    /// Checks `layout` ([`Layout::check`]) and works out its neighbourhoods.
+    pub fn new(layout: Layout) -> Result<Self> {
+        layout.check()?;
+        let neighbourhoods = layout
+            .chunks()
+            .into_iter()
+            .map(|k| (k, Neighbourhood::of(&layout, &k)))
+            .collect();
+        Ok(PreparedLayout {
+            layout,
+            neighbourhoods,
+        })
+    }
+
+    /// The layout.
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+}
+
+/// A world of chunks with retained trees and per-chunk thresholds (see the
+/// module docs).
+pub struct World {
     /// World position of lattice corner (0, 0, 0).
     pub origin: Vec3,
-    /// Side of one cell (world units).
+    /// Side of a level-0 cell (world units).
     pub cell_size: f32,
-    /// Cells per chunk along each axis.
+    /// Cells per chunk along each axis, at every level (even in a layout of
+    /// several levels).
     pub chunk_res: u32,
     /// Build settings used for every chunk.
     pub settings: Settings,
-    bounds: Option<UVec3>,
+    /// Keep each chunk's field samples, so a chunk rebuilt because a neighbour
+    /// changed level is conformed again without sampling the field (true for
+    /// [`World::new`], false for one-level worlds, whose neighbours never change
+    /// level). Costs `(chunk_res + 3)^3` floats per sampled chunk (counted in
+    /// [`World::retained_bytes`]). After the field changes, drop them with
+    /// [`World::edited`] or [`World::forget_samples`].
+    pub keep_samples: bool,
+    layout: Layout,
+    neighbourhoods: ChunkMap<Neighbourhood>,
     default_threshold: f32,
-    // Looked up by the thousand per frame in the plugin: the fast chunk hasher.
-    slots: HashMap<IVec3, Slot, BuildHasherDefault<KeyHasher>>,
+    slots: ChunkMap<Slot>,
 }
 
-impl ChunkWorld {
-    /// A bounded world of `chunks` (X x Y x Z) chunks, none built yet. Every chunk
-    /// starts at `threshold`. A world over `settings.memory_budget` (its trees,
-    /// the samples of one chunk per thread, its slots) is refused here.
+impl World {
+    /// A world over `layout` (of one level or several), no chunk built yet; every
+    /// chunk starts at `threshold`, and chunks keep their samples
+    /// ([`World::keep_samples`]).
     pub fn new(
+        origin: Vec3,
+        cell_size: f32,
+        chunk_res: u32,
+        layout: Layout,
+        threshold: f32,
+        settings: Settings,
+    ) -> Result<Self> {
+        let mut world = Self::empty(origin, cell_size, chunk_res, threshold, settings)?;
+        world.keep_samples = true;
+        world.set_layout(layout)?;
+        Ok(world)
+    }
+
+    /// A bounded one-level world of `chunks` (X x Y x Z) chunks from chunk
+    /// `(0, 0, 0)`, none built yet. Every chunk starts at `threshold`. A world over
+    /// `settings.memory_budget` ([`World::check_budget`]) is refused here.
+    pub fn bounded(
         origin: Vec3,
         cell_size: f32,
         chunk_res: u32,
@@ -107,39 +206,34 @@ impl ChunkWorld {
                 ),
             });
         }
-        let mut world = Self::unbounded(origin, cell_size, chunk_res, threshold, settings)?;
+        let mut world = Self::empty(origin, cell_size, chunk_res, threshold, settings)?;
         if chunks.max_element() as i64 * chunk_res as i64 > MAX_LATTICE {
             return Err(Error::InvalidSetting {
                 name: "chunks",
                 reason: format!("{chunks} chunks of {chunk_res} cells exceed 2^30 cells"),
             });
         }
-        check_world_budget::<(IVec3, Slot)>(
-            chunks,
-            chunks.as_u64vec3().element_product(),
-            &world.chunk_grid(IVec3::ZERO),
-            &world.settings,
-        )?;
-        world.bounds = Some(chunks);
-        for z in 0..chunks.z as i32 {
-            for y in 0..chunks.y as i32 {
-                for x in 0..chunks.x as i32 {
-                    world.slots.insert(
-                        IVec3::new(x, y, z),
-                        Slot {
-                            tree: None,
-                            threshold,
-                        },
-                    );
-                }
-            }
-        }
+        // Before the layout is made: a refused world allocates nothing.
+        Self::check_region(chunks, chunk_res, &world.settings)?;
+        let layout = Layout::uniform(IVec3::ZERO, chunks.as_ivec3(), 0)?;
+        world.set_layout(layout)?;
         Ok(world)
     }
 
-    /// An unbounded world with no chunks; add them with [`ChunkWorld::add_chunk`].
-    /// New chunks start at `threshold`.
+    /// An unbounded one-level world with no chunks (an open layout); add them
+    /// with [`World::add_chunk`]. New chunks start at `threshold`.
     pub fn unbounded(
+        origin: Vec3,
+        cell_size: f32,
+        chunk_res: u32,
+        threshold: f32,
+        settings: Settings,
+    ) -> Result<Self> {
+        Self::empty(origin, cell_size, chunk_res, threshold, settings)
+    }
+
+    /// A world with an open layout and no chunk, its settings checked.
+    fn empty(
         origin: Vec3,
         cell_size: f32,
         chunk_res: u32,
@@ -153,62 +247,161 @@ impl ChunkWorld {
             });
         }
         check_threshold(threshold)?;
-        let world = ChunkWorld {
+        let world = World {
             origin,
             cell_size,
             chunk_res,
             settings,
-            bounds: None,
+            keep_samples: false,
+            layout: Layout::open(),
+            neighbourhoods: ChunkMap::default(),
             default_threshold: threshold,
-            slots: HashMap::default(),
+            slots: ChunkMap::default(),
         };
-        world.chunk_grid(IVec3::ZERO).validate()?;
+        world
+            .chunk_grid(&ChunkKey::new(0, IVec3::ZERO))
+            .validate()?;
         Ok(world)
     }
 
-    /// The block size of a bounded world; `None` when unbounded.
-    pub fn bounds(&self) -> Option<UVec3> {
-        self.bounds
+    /// Checks a world of `layout`'s chunks against `settings.memory_budget`
+    /// before any is built: one slot per chunk, one chunk build per worker thread
+    /// (each build checks its own grid again before sampling), and for a layout
+    /// of one level that tiles a region, the trees of a surface as large as the
+    /// faces of that region. [`World::set_layout`] calls it; call
+    /// [`World::check_chunk_count`] before making a large layout.
+    pub fn check_budget(layout: &Layout, chunk_res: u32, settings: &Settings) -> Result<()> {
+        if layout.max_level() == 0 && !layout.is_open() {
+            let extent = (layout.hi() - layout.lo()).as_uvec3();
+            return Self::check_region(extent, chunk_res, settings);
+        }
+        Self::check_chunk_count(layout.len() as u64, chunk_res, settings)
     }
 
-    fn slot(&self, c: IVec3) -> &Slot {
-        self.slots
-            .get(&c)
-            .unwrap_or_else(|| panic!("chunk {c} is not a member of this world"))
+    /// [`World::check_budget`] for a one-level region of `extent` chunks.
+    fn check_region(extent: UVec3, chunk_res: u32, settings: &Settings) -> Result<()> {
+        let what = format!(
+            "a world of {}x{}x{} chunks of {chunk_res}^3 cells",
+            extent.x, extent.y, extent.z
+        );
+        let surface = crate::hermite::surface_bytes(extent.as_u64vec3() * chunk_res as u64);
+        let chunks = extent.as_u64vec3().element_product();
+        Self::check_needed(what, chunks, surface, chunk_res, settings)
     }
 
-    fn slot_mut(&mut self, c: IVec3) -> &mut Slot {
-        self.slots
-            .get_mut(&c)
-            .unwrap_or_else(|| panic!("chunk {c} is not a member of this world"))
+    /// [`World::check_budget`] for `chunks` chunks of several levels, before
+    /// their layout is made (the level-0 chunk count of a region bounds any
+    /// layout over it). Every chunk has `chunk_res`^3 cells whatever its level,
+    /// so such a world's memory is per chunk, not per level-0 cell of its region
+    /// (a 4,096-cell view's region is 12,288 cells wide but holds ~1,500 chunks).
+    pub fn check_chunk_count(chunks: u64, chunk_res: u32, settings: &Settings) -> Result<()> {
+        let what = format!("a world of {chunks} chunks of {chunk_res}^3 cells");
+        Self::check_needed(what, chunks, 0, chunk_res, settings)
     }
 
-    /// Whether `c` is a member chunk of this world.
-    pub fn contains(&self, c: IVec3) -> bool {
-        self.slots.contains_key(&c)
+    fn check_needed(
+        what: String,
+        chunks: u64,
+        surface: u64,
+        chunk_res: u32,
+        settings: &Settings,
+    ) -> Result<()> {
+        let grid = level_grid(Vec3::ZERO, 1.0, chunk_res, &ChunkKey::new(0, IVec3::ZERO));
+        let threads = match settings.threads {
+            0 => rayon::current_num_threads(),
+            n => n,
+        } as u64;
+        let entry = (std::mem::size_of::<(ChunkKey, Slot)>()
+            + std::mem::size_of::<(ChunkKey, Neighbourhood)>()
+            + 2) as u64;
+        let needed = chunks
+            .saturating_mul(entry)
+            .saturating_add(surface)
+            .saturating_add(threads.saturating_mul(crate::hermite::estimate_bytes(&grid)));
+        crate::settings::check_budget(what, needed, settings.memory_budget)
     }
 
-    /// Number of member chunks.
-    pub fn len(&self) -> usize {
-        self.slots.len()
+    /// The layout.
+    pub fn layout(&self) -> &Layout {
+        &self.layout
     }
 
-    /// Whether the world has no chunk.
-    pub fn is_empty(&self) -> bool {
-        self.slots.is_empty()
+    /// Replaces the layout. Chunks that leave it are dropped, new ones start
+    /// unbuilt at the default threshold, kept ones keep their tree and threshold.
+    /// Returns the chunks to (re)build: the new ones and the kept ones whose
+    /// neighbourhood changed (see [`World::stale`]).
+    pub fn set_layout(&mut self, layout: Layout) -> Result<Vec<ChunkKey>> {
+        self.set_prepared(PreparedLayout::new(layout)?)
     }
 
-    /// Makes `c` a member (unbuilt, at the default threshold). Returns whether it is
-    /// new. Errors when `c` is outside a bounded world's block, or so far out that
+    /// [`World::set_layout`] with the layout prepared beforehand (perhaps on
+    /// another thread): only the bookkeeping is left.
+    pub fn set_prepared(&mut self, prepared: PreparedLayout) -> Result<Vec<ChunkKey>> {
+        let PreparedLayout {
+            layout,
+            neighbourhoods,
+        } = prepared;
+        if layout.max_level() > 0 && !self.chunk_res.is_multiple_of(2) {
+            return Err(Error::InvalidSetting {
+                name: "chunk_res",
+                reason: format!(
+                    "{} cells per chunk; a layout of several levels needs an even count",
+                    self.chunk_res
+                ),
+            });
+        }
+        let far =
+            layout.lo().abs().max(layout.hi().abs()).max_element() as i64 * self.chunk_res as i64;
+        if far >= MAX_LATTICE {
+            return Err(Error::InvalidSetting {
+                name: "layout",
+                reason: format!(
+                    "{}..{} is more than 2^30 cells out",
+                    layout.lo(),
+                    layout.hi()
+                ),
+            });
+        }
+        Self::check_budget(&layout, self.chunk_res, &self.settings)?;
+        // Trees and samples of the chunks that leave, and the old neighbourhoods,
+        // are freed on a rayon thread: thousands of buffers are a few ms.
+        let removed: Vec<Slot> = self
+            .slots
+            .extract_if(|k, _| !layout.contains(k))
+            .map(|(_, s)| s)
+            .collect();
+        for &k in neighbourhoods.keys() {
+            self.slots.entry(k).or_insert(Slot {
+                tree: None,
+                built_for: Neighbourhood::default(),
+                threshold: self.default_threshold,
+                samples: None,
+            });
+        }
+        self.layout = layout;
+        let old = std::mem::replace(&mut self.neighbourhoods, neighbourhoods);
+        drop_elsewhere((removed, old));
+        Ok(self.stale())
+    }
+
+    /// Makes level-0 chunk `c` a member of an open layout (unbuilt, at the default
+    /// threshold). Returns whether it is new. Errors when the layout is not open
+    /// and `c` is not already one of its chunks, or when `c` is so far out that
     /// its lattice coordinates would overflow.
     pub fn add_chunk(&mut self, c: IVec3) -> Result<bool> {
-        if let Some(b) = self.bounds {
-            if !(c.cmpge(IVec3::ZERO).all() && c.cmplt(b.as_ivec3()).all()) {
-                return Err(Error::InvalidSetting {
-                    name: "chunk",
-                    reason: format!("{c} is outside the bounded world's {b} chunks"),
-                });
+        let k = ChunkKey::new(0, c);
+        if !self.layout.is_open() {
+            if self.layout.contains(&k) {
+                return Ok(false);
             }
+            return Err(Error::InvalidSetting {
+                name: "chunk",
+                reason: format!(
+                    "{c} is outside the bounded world's {}..{} chunks",
+                    self.layout.lo(),
+                    self.layout.hi()
+                ),
+            });
         }
         let far = c.abs().max_element() as i64 * self.chunk_res as i64;
         if far >= MAX_LATTICE {
@@ -217,51 +410,112 @@ impl ChunkWorld {
                 reason: format!("{c} is more than 2^30 cells from the origin"),
             });
         }
-        if self.slots.contains_key(&c) {
+        if !self.layout.insert(k) {
             return Ok(false);
         }
+        self.neighbourhoods.insert(k, Neighbourhood::default());
         self.slots.insert(
-            c,
+            k,
             Slot {
                 tree: None,
+                built_for: Neighbourhood::default(),
                 threshold: self.default_threshold,
+                samples: None,
             },
         );
         Ok(true)
     }
 
-    /// Drops member `c` and its tree. Returns whether it was a member. The seams of
-    /// [`ChunkWorld::seam_owners_touching`]`(c)`, computed before the call, need
-    /// re-extracting: they lose the triangles that joined `c`.
-    pub fn remove_chunk(&mut self, c: IVec3) -> bool {
-        self.slots.remove(&c).is_some()
-    }
-
-    /// The grid chunk `c` samples: its cells plus one cell of halo on every side.
-    pub fn chunk_grid(&self, c: IVec3) -> Grid {
-        Grid {
-            origin: self.origin,
-            cell_size: self.cell_size,
-            cells: UVec3::splat(self.chunk_res + 2),
-            offset: c * self.chunk_res as i32 - IVec3::ONE,
+    /// Drops chunk `k` of an open layout and its tree. Returns whether it was a
+    /// member. The seams of [`World::seam_owners_touching`]`(k)`, computed before
+    /// the call, need re-extracting: they lose the triangles that joined `k`.
+    pub fn remove_chunk(&mut self, k: &ChunkKey) -> bool {
+        if !self.layout.is_open() || !self.layout.remove(k) {
+            return false;
         }
+        self.neighbourhoods.remove(k);
+        if let Some(s) = self.slots.remove(k) {
+            drop_elsewhere(s);
+        }
+        true
     }
 
-    /// The world box of chunk `c` (min, max).
-    pub fn chunk_bounds(&self, c: IVec3) -> (Vec3, Vec3) {
-        let side = self.chunk_res as f32 * self.cell_size;
-        let lo = self.origin + c.as_vec3() * side;
-        (lo, lo + Vec3::splat(side))
+    /// The chunks without a tree, or whose tree was built for another
+    /// neighbourhood than the layout now gives them, in layout order.
+    pub fn stale(&self) -> Vec<ChunkKey> {
+        self.layout
+            .chunks()
+            .into_iter()
+            .filter(|k| {
+                let s = &self.slots[k];
+                s.tree.is_none() || s.built_for != self.neighbourhoods[k]
+            })
+            .collect()
     }
 
-    /// The chunk whose box holds world point `p`.
+    /// Every chunk, in layout order ([`ChunkKey::order`]: z, then y, then x).
+    pub fn chunks(&self) -> Vec<ChunkKey> {
+        self.layout.chunks()
+    }
+
+    /// Number of chunks (built or not).
+    pub fn len(&self) -> usize {
+        self.layout.len()
+    }
+
+    /// Whether the world has no chunk.
+    pub fn is_empty(&self) -> bool {
+        self.layout.is_empty()
+    }
+
+    /// Whether `k` is one of the world's chunks.
+    pub fn contains(&self, k: &ChunkKey) -> bool {
+        self.layout.contains(k)
+    }
+
+    fn slot(&self, k: &ChunkKey) -> &Slot {
+        self.slots
+            .get(k)
+            .unwrap_or_else(|| panic!("chunk {k:?} is not in the world"))
+    }
+
+    fn slot_mut(&mut self, k: &ChunkKey) -> &mut Slot {
+        self.slots
+            .get_mut(k)
+            .unwrap_or_else(|| panic!("chunk {k:?} is not in the world"))
+    }
+
+    /// The grid chunk `k` samples: its cells plus one cell of halo on every side.
+    pub fn chunk_grid(&self, k: &ChunkKey) -> Grid {
+        level_grid(self.origin, self.cell_size, self.chunk_res, k)
+    }
+
+    /// The world box of chunk `k` (min, max).
+    pub fn chunk_bounds(&self, k: &ChunkKey) -> (Vec3, Vec3) {
+        let side = self.chunk_side();
+        (
+            self.origin + k.lo().as_vec3() * side,
+            self.origin + k.hi().as_vec3() * side,
+        )
+    }
+
+    /// Side of a level-0 chunk (world units).
+    pub fn chunk_side(&self) -> f32 {
+        self.chunk_res as f32 * self.cell_size
+    }
+
+    /// World point `p` in level-0 chunk units (for [`Layout::around`]).
+    pub fn to_chunk_units(&self, p: Vec3) -> Vec3 {
+        (p - self.origin) / self.chunk_side()
+    }
+
+    /// The level-0 chunk position whose box holds world point `p`.
     pub fn chunk_at(&self, p: Vec3) -> IVec3 {
-        let side = self.chunk_res as f32 * self.cell_size;
-        ((p - self.origin) / side).floor().as_ivec3()
+        self.to_chunk_units(p).floor().as_ivec3()
     }
 
-    /// Every chunk (member or not) whose box comes within `radius` of `center`,
-    /// sorted nearest first.
+    /// Every level-0 chunk position (in the world or not) whose box comes within
+    /// `radius` of `center`, nearest first.
     pub fn chunks_near(&self, center: Vec3, radius: f32) -> Vec<IVec3> {
         let lo = self.chunk_at(center - Vec3::splat(radius));
         let hi = self.chunk_at(center + Vec3::splat(radius));
@@ -269,286 +523,50 @@ impl ChunkWorld {
         for z in lo.z..=hi.z {
             for y in lo.y..=hi.y {
                 for x in lo.x..=hi.x {
-                    let c = IVec3::new(x, y, z);
-                    let (a, b) = self.chunk_bounds(c);
+                    let k = ChunkKey::new(0, IVec3::new(x, y, z));
+                    let (a, b) = self.chunk_bounds(&k);
                     let d = center.clamp(a, b).distance(center);
                     if d <= radius {
-                        out.push((d, c));
+                        out.push((d, k));
                     }
                 }
             }
         }
-        out.sort_by(|a, b| a.0.total_cmp(&b.0).then(key(a.1).cmp(&key(b.1))));
-        out.into_iter().map(|(_, c)| c).collect()
+        out.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.order().cmp(&b.1.order())));
+        out.into_iter().map(|(_, k)| k.coord).collect()
     }
 
-    /// Samples `field` for chunk `c` and builds its tree (replacing an old one).
-    pub fn build_chunk(&mut self, c: IVec3, field: &dyn Field) -> Result<()> {
-        let tree = self.chunk_build(c).run(field)?;
-        self.insert_tree(c, tree);
-        Ok(())
+    /// The tree of chunk `k`, if built.
+    pub fn tree(&self, k: &ChunkKey) -> Option<&KdTree> {
+        self.slot(k).tree.as_deref()
     }
 
-    /// Builds every member chunk (in parallel over chunks).
-    pub fn build_all(&mut self, field: &dyn Field) -> Result<()> {
-        use rayon::prelude::*;
-        let coords = self.coords();
-        let grids: Vec<Grid> = coords.iter().map(|&c| self.chunk_grid(c)).collect();
-        let (res, settings) = (self.chunk_res, self.settings.clone());
-        let inner = Settings {
-            threads: 0,
-            ..settings.clone()
-        };
-        let trees: Vec<Result<KdTree>> = settings.run(|| {
-            grids
-                .par_iter()
-                .map(|g| build_chunk_tree(g, res, field, &inner))
-                .collect()
-        })?;
-        for (c, t) in coords.into_iter().zip(trees) {
-            self.insert_tree(c, t?);
-        }
-        Ok(())
+    /// The threshold chunk `k` is cut at (squared cells of its own level).
+    pub fn threshold(&self, k: &ChunkKey) -> f32 {
+        self.slot(k).threshold
     }
 
-    /// Every member chunk, sorted z, then y, then x.
-    pub fn coords(&self) -> Vec<IVec3> {
-        let mut v: Vec<IVec3> = self.slots.keys().copied().collect();
-        v.sort_by_key(|&c| key(c));
-        v
+    /// Sets chunk `k`'s threshold. Re-extract `k` and the seams of
+    /// [`World::seam_owners_touching`]`(k)` to show it.
+    pub fn set_threshold(&mut self, k: &ChunkKey, threshold: f32) {
+        self.slot_mut(k).threshold = threshold;
     }
 
-    /// The tree of chunk `c`, if built.
-    pub fn tree(&self, c: IVec3) -> Option<&KdTree> {
-        self.slot(c).tree.as_deref()
-    }
-
-    /// Everything needed to build chunk `c` elsewhere (a task, another thread).
-    pub fn chunk_build(&self, c: IVec3) -> ChunkBuild {
-        ChunkBuild {
-            grid: self.chunk_grid(c),
-            res: self.chunk_res,
-            settings: self.settings.clone(),
-        }
-    }
-
-    /// Installs a tree built by [`ChunkBuild::run`] for member chunk `c`.
-    pub fn insert_tree(&mut self, c: IVec3, tree: KdTree) {
-        self.slot_mut(c).tree = Some(Arc::new(tree));
-    }
-
-    /// Forgets member chunk `c`'s tree (its mesh and the seams it owns become
-    /// empty); it stays a member.
-    pub fn remove_tree(&mut self, c: IVec3) {
-        self.slot_mut(c).tree = None;
-    }
-
-    /// What extracting chunk `c` (interior and owned seams) needs, detached from the
-    /// world so a task can run it: the trees of `c` and its upper neighbours, and
-    /// their thresholds. `None` when `c` has no tree.
-    pub fn snapshot(&self, c: IVec3) -> Option<ChunkSnapshot> {
-        let (coords, jobs) = self.owned_jobs(c);
-        if coords.is_empty() {
-            return None;
-        }
-        let owned = coords
-            .iter()
-            .map(|&cc| {
-                let slot = self.slot(cc);
-                (
-                    slot.tree.clone().expect("owned_jobs lists built chunks"),
-                    self.part_offset(cc),
-                    slot.threshold,
-                )
-            })
-            .collect();
-        let mut interior = vec![Job::Cell(0)];
-        interior.extend(jobs);
-        Some(ChunkSnapshot {
-            parts: owned,
-            jobs: interior,
-        })
-    }
-
-    /// The threshold member chunk `c` is cut at.
-    pub fn threshold(&self, c: IVec3) -> f32 {
-        self.slot(c).threshold
-    }
-
-    /// Sets member chunk `c`'s threshold. Re-extract `c` and the seams of
-    /// [`ChunkWorld::seam_owners_touching`]`(c)` to show it.
-    pub fn set_threshold(&mut self, c: IVec3, threshold: f32) {
-        self.slot_mut(c).threshold = threshold;
-    }
-
-    /// The member chunks whose owned seams touch chunk `c`: `c` and its lower
-    /// neighbours across one or two axes (up to seven chunks).
-    pub fn seam_owners_touching(&self, c: IVec3) -> Vec<IVec3> {
-        let mut out = Vec::new();
-        for mask in 0..8u32 {
-            if mask.count_ones() == 3 {
-                continue;
-            }
-            let d = IVec3::new(
-                (mask & 1) as i32,
-                (mask >> 1 & 1) as i32,
-                (mask >> 2 & 1) as i32,
-            );
-            let o = c - d;
-            if self.contains(o) {
-                out.push(o);
-            }
-        }
-        out
-    }
-
-    fn part_offset(&self, c: IVec3) -> IVec3 {
-        c * self.chunk_res as i32 - IVec3::ONE
-    }
-
-    fn part(&self, c: IVec3) -> Option<Part<'_>> {
-        let slot = self.slots.get(&c)?;
-        slot.tree.as_deref().map(|tree| Part {
-            tree,
-            offset: self.part_offset(c),
-            threshold: slot.threshold,
-            shift: 0,
-        })
-    }
-
-    /// The seam jobs chunk `c` owns, with the chunks they need (chunk 0 is `c`;
-    /// every listed chunk is built).
-    fn owned_jobs(&self, c: IVec3) -> (Vec<IVec3>, Vec<Job>) {
-        let mut jobs = Vec::new();
-        if self.part(c).is_none() {
-            return (Vec::new(), jobs);
-        }
-        let mut coords = vec![c];
-        let mut find = |o: IVec3| -> Option<usize> {
-            self.part(o)?;
-            coords.push(o);
-            Some(coords.len() - 1)
-        };
-        for a in 0..3 {
-            if let Some(high) = find(c + IVec3::AXES[a]) {
-                jobs.push(Job::Face {
-                    low: 0,
-                    high,
-                    axis: a,
-                });
-            }
-        }
-        for a in 0..3 {
-            let (u, v) = (IVec3::AXES[(a + 1) % 3], IVec3::AXES[(a + 2) % 3]);
-            let q1 = find(c + u);
-            let q2 = find(c + u + v);
-            let q3 = find(c + v);
-            if let (Some(q1), Some(q2), Some(q3)) = (q1, q2, q3) {
-                jobs.push(Job::Edge {
-                    parts: [0, q1, q2, q3],
-                    axis: a,
-                });
-            }
-        }
-        (coords, jobs)
-    }
-
-    /// Contours the inside of chunk `c` at its threshold into `out` (cleared).
-    pub fn extract_interior(&self, c: IVec3, out: &mut IndexedMesh) {
-        out.reset();
-        if let Some(p) = self.part(c) {
-            contour(&[p], &[Job::Cell(0)], out);
-        }
-    }
-
-    /// Contours the seams chunk `c` owns into `out` (cleared), each neighbour at its
-    /// own threshold.
-    pub fn extract_seams(&self, c: IVec3, out: &mut IndexedMesh) {
-        out.reset();
-        let (coords, jobs) = self.owned_jobs(c);
-        let parts: Vec<Part> = coords.iter().filter_map(|&cc| self.part(cc)).collect();
-        contour(&parts, &jobs, out);
-    }
-
-    /// The whole world as one welded mesh: every built chunk's interior and every
-    /// seam between built chunks, vertices shared, so it can be checked for
-    /// watertightness as a whole.
-    pub fn extract_all(&self) -> IndexedMesh {
-        let coords: Vec<IVec3> = self
-            .coords()
-            .into_iter()
-            .filter(|&c| self.part(c).is_some())
-            .collect();
-        let index_of: HashMap<IVec3, usize> =
-            coords.iter().enumerate().map(|(i, &c)| (c, i)).collect();
-        let parts: Vec<Part> = coords.iter().filter_map(|&c| self.part(c)).collect();
-        let mut jobs = Vec::new();
-        for (i, &c) in coords.iter().enumerate() {
-            jobs.push(Job::Cell(i));
-            let at = |o: IVec3| index_of.get(&o).copied();
-            for a in 0..3 {
-                if let Some(high) = at(c + IVec3::AXES[a]) {
-                    jobs.push(Job::Face {
-                        low: i,
-                        high,
-                        axis: a,
-                    });
-                }
-                let (u, v) = (IVec3::AXES[(a + 1) % 3], IVec3::AXES[(a + 2) % 3]);
-                if let (Some(q1), Some(q2), Some(q3)) = (at(c + u), at(c + u + v), at(c + v)) {
-                    jobs.push(Job::Edge {
-                        parts: [i, q1, q2, q3],
-                        axis: a,
-                    });
-                }
-            }
-        }
-        let mut out = IndexedMesh::default();
-        contour(&parts, &jobs, &mut out);
-        out
-    }
-
-    /// Bytes held by all retained trees.
+    /// Bytes held by all retained trees and kept samples.
     pub fn retained_bytes(&self) -> usize {
         self.slots
             .values()
-            .filter_map(|s| s.tree.as_ref())
-            .map(|t| t.retained_bytes())
+            .map(|s| {
+                s.tree.as_ref().map_or(0, |t| t.retained_bytes())
+                    + s.samples
+                        .as_ref()
+                        .map_or(0, |v| std::mem::size_of_val(&**v))
+            })
             .sum()
     }
 }
 
 /// A chunk threshold must be finite.
-/// Checks a world against the memory budget before any chunk exists: the trees
-/// of a surface as large as the faces of its `extent` (in level-0 chunks), the
-/// samples of one chunk per worker thread, and one map `Entry` per chunk.
-pub(crate) fn check_world_budget<Entry>(
-    extent: UVec3,
-    chunk_count: u64,
-    chunk_grid: &Grid,
-    settings: &Settings,
-) -> Result<()> {
-    let res = chunk_grid.cells.max_element().saturating_sub(2).max(1) as u64;
-    let cells = extent.as_u64vec3() * res;
-    let threads = match settings.threads {
-        0 => rayon::current_num_threads(),
-        n => n,
-    } as u64;
-    // A hash map entry and its control byte.
-    let slot = std::mem::size_of::<Entry>() as u64 + 1;
-    let needed = crate::hermite::surface_bytes(cells)
-        .saturating_add(threads.saturating_mul(crate::hermite::estimate_bytes(chunk_grid)))
-        .saturating_add(chunk_count.saturating_mul(slot));
-    crate::settings::check_budget(
-        format!(
-            "a world of {}x{}x{} chunks of {res}^3 cells",
-            extent.x, extent.y, extent.z
-        ),
-        needed,
-        settings.memory_budget,
-    )
-}
-
 pub(crate) fn check_threshold(threshold: f32) -> Result<()> {
     if threshold.is_finite() {
         Ok(())
@@ -560,78 +578,8 @@ pub(crate) fn check_threshold(threshold: f32) -> Result<()> {
     }
 }
 
-/// Sort key: z, then y, then x.
-fn key(c: IVec3) -> (i32, i32, i32) {
-    (c.z, c.y, c.x)
-}
-
-/// A chunk build detached from its world (see [`ChunkWorld::chunk_build`]).
-#[derive(Clone, Debug)]
-pub struct ChunkBuild {
-    /// The chunk's grid, halo included.
-    pub grid: Grid,
-    /// Cells per chunk.
-    pub res: u32,
-    /// Build settings.
-    pub settings: Settings,
-}
-
-impl ChunkBuild {
-    /// Samples the field and builds the chunk's tree.
-    pub fn run(&self, field: &dyn Field) -> Result<KdTree> {
-        build_chunk_tree(&self.grid, self.res, field, &self.settings)
-    }
-}
-
-/// A chunk's extraction detached from its world (see [`ChunkWorld::snapshot`]).
-#[derive(Clone)]
-pub struct ChunkSnapshot {
-    parts: Vec<(Arc<KdTree>, IVec3, f32)>,
-    jobs: Vec<Job>,
-}
-
-impl ChunkSnapshot {
-    /// Contours the chunk's interior and its owned seams into `out` (cleared).
-    pub fn extract(&self, out: &mut IndexedMesh) {
-        out.reset();
-        let parts: Vec<Part> = self
-            .parts
-            .iter()
-            .map(|(t, offset, threshold)| Part {
-                tree: t,
-                offset: *offset,
-                threshold: *threshold,
-                shift: 0,
-            })
-            .collect();
-        contour(&parts, &self.jobs, out);
-    }
-}
-
-/// Samples a chunk's grid (with halo) and builds the tree over its core cells.
-fn build_chunk_tree(
-    grid: &Grid,
-    res: u32,
-    field: &dyn Field,
-    settings: &Settings,
-) -> Result<KdTree> {
-    settings.run(|| {
-        // A chunk the field's bound proves one-signed has no surface: its tree is
-        // built from the signs alone, as sampling would have built it.
-        let values = match crate::hermite::one_sign(field, grid, 0, settings)? {
-            Some(v) => v,
-            None => crate::hermite::sample(field, grid, settings)?,
-        };
-        let h = Hermite::new(field, grid, &values, settings)?;
-        let r = res as u16;
-        let mut tree = kdtree::build_in(
-            &h,
-            field,
-            settings.partition,
-            [1, 1, 1],
-            [r + 1, r + 1, r + 1],
-        );
-        crate::material::paint_tree(&mut tree, field, settings);
-        Ok(tree)
-    })?
+/// Drops `garbage` on a rayon thread, so the thread that changes the world (a
+/// game's main thread) does not free its buffers.
+fn drop_elsewhere<T: Send + 'static>(garbage: T) {
+    rayon::spawn(move || drop(garbage));
 }

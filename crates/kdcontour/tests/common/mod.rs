@@ -21,9 +21,9 @@ impl Lcg {
 /// A world of `chunks`³ chunks of `res`³ cells over `[-1, 1]^3` at threshold 0.01,
 /// built from `field`. (Not every test file that shares this module uses it.)
 #[allow(dead_code)]
-pub fn chunk_world(field: &dyn kdcontour::Field, chunks: u32, res: u32) -> kdcontour::ChunkWorld {
+pub fn chunk_world(field: &dyn kdcontour::Field, chunks: u32, res: u32) -> kdcontour::World {
     let cell = 2.0 / (chunks * res) as f32;
-    let mut w = kdcontour::ChunkWorld::new(
+    let mut w = kdcontour::World::bounded(
         glam::Vec3::splat(-1.0),
         cell,
         res,

@@ -1,7 +1,7 @@
 //! Bounds: the sphere around each compiled node that lets unions and differences
-//! skip children which cannot change the result.
+//! skip children which cannot change the result (compilation gives each node
+//! its own, [`super::compile`]).
 
-use super::compile::Op;
 use glam::Vec3;
 
 /// A sphere with `value(p) >= |p - center| - radius` everywhere: for an exact SDF any
@@ -9,7 +9,7 @@ use glam::Vec3;
 /// most the distance to the sphere's).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Bound {
-    /// Centre.
+    /// Center.
     pub center: Vec3,
     /// Radius.
     pub radius: f32,
@@ -21,7 +21,7 @@ impl Bound {
         p.distance(self.center) - self.radius
     }
     /// The sphere with its radius grown by `by`.
-    fn grow(self, by: f32) -> Bound {
+    pub(super) fn grow(self, by: f32) -> Bound {
         Bound {
             center: self.center,
             radius: self.radius + by,
@@ -30,7 +30,7 @@ impl Bound {
 }
 
 /// A sphere enclosing all of `bounds`, or `None` if one of them is unbounded.
-fn enclose(bounds: &[Option<Bound>]) -> Option<Bound> {
+pub(super) fn enclose(bounds: &[Option<Bound>]) -> Option<Bound> {
     let b: Option<Vec<Bound>> = bounds.iter().cloned().collect();
     let b = b?;
     let (lo, hi) = b
@@ -44,44 +44,4 @@ fn enclose(bounds: &[Option<Bound>]) -> Option<Bound> {
         .map(|x| x.center.distance(center) + x.radius)
         .fold(0.0, f32::max);
     Some(Bound { center, radius })
-}
-
-/// The bound of a node computing `op` (its children already bounded).
-pub(super) fn bound_of(op: &Op) -> Option<Bound> {
-    match op {
-        Op::Prim(prim, c) => {
-            let r = prim.bounding_radius();
-            r.is_finite().then_some(Bound {
-                center: *c,
-                radius: r,
-            })
-        }
-        Op::Union(ch) => enclose(&ch.iter().map(|c| c.bound).collect::<Vec<_>>()),
-        Op::SmoothUnion(k, ch) => {
-            enclose(&ch.iter().map(|c| c.bound).collect::<Vec<_>>()).map(|b| b.grow(k * 0.25))
-        }
-        Op::Intersection(ch) => ch
-            .iter()
-            .filter_map(|c| c.bound)
-            .min_by(|a, b| a.radius.total_cmp(&b.radius)),
-        Op::SmoothIntersection(k, ch) => ch
-            .iter()
-            .filter_map(|c| c.bound)
-            .min_by(|a, b| a.radius.total_cmp(&b.radius))
-            .map(|b| b.grow(k * 0.25)),
-        Op::Difference(a, _) => a.bound,
-        Op::SmoothDifference(k, a, _) => a.bound.map(|b| b.grow(k * 0.25)),
-        Op::Transform {
-            rot,
-            translate,
-            scale,
-            child,
-            ..
-        } => child.bound.map(|b| Bound {
-            center: *rot * (b.center * *scale) + *translate,
-            radius: b.radius * scale,
-        }),
-        Op::Material(_, child) => child.bound,
-        Op::Heightfield(_) | Op::Density(_) => None,
-    }
 }

@@ -1,7 +1,7 @@
 //! Compilation: a checked [`CsgNode`] tree becomes a [`Csg`], a tree of [`Op`]s,
 //! each [`Node`] carrying its bounding sphere.
 
-use super::bound::{bound_of, Bound};
+use super::bound::{enclose, Bound};
 use super::CsgNode;
 use crate::error::Error;
 use crate::field::sdf::Primitive;
@@ -10,7 +10,7 @@ use glam::{Quat, Vec3};
 
 /// What a compiled node computes.
 pub(super) enum Op {
-    /// A primitive placed at a centre.
+    /// A primitive placed at a center.
     Prim(Primitive, Vec3),
     /// Minimum of the children.
     Union(Vec<Node>),
@@ -61,7 +61,7 @@ pub struct Csg {
 }
 
 impl Csg {
-    /// A sphere `(centre, radius)` outside which the field is at least the distance
+    /// A sphere `(center, radius)` outside which the field is at least the distance
     /// to the sphere (so nothing there is inside), or `None` for unbounded trees
     /// (planes, terrain).
     pub fn bounding_sphere(&self) -> Option<(Vec3, f32)> {
@@ -126,5 +126,45 @@ fn compile_op(n: &CsgNode) -> Op {
         CsgNode::Heightfield(p) => Op::Heightfield(Box::new(Heightfield::new(p.clone()))),
         CsgNode::Density(p) => Op::Density(Box::new(Density::new(p.clone()))),
         _ => unreachable!("every other node is a primitive, compiled above"),
+    }
+}
+
+/// The bound of a node computing `op` (its children already bounded).
+fn bound_of(op: &Op) -> Option<Bound> {
+    match op {
+        Op::Prim(prim, c) => {
+            let r = prim.bounding_radius();
+            r.is_finite().then_some(Bound {
+                center: *c,
+                radius: r,
+            })
+        }
+        Op::Union(ch) => enclose(&ch.iter().map(|c| c.bound).collect::<Vec<_>>()),
+        Op::SmoothUnion(k, ch) => {
+            enclose(&ch.iter().map(|c| c.bound).collect::<Vec<_>>()).map(|b| b.grow(k * 0.25))
+        }
+        Op::Intersection(ch) => ch
+            .iter()
+            .filter_map(|c| c.bound)
+            .min_by(|a, b| a.radius.total_cmp(&b.radius)),
+        Op::SmoothIntersection(k, ch) => ch
+            .iter()
+            .filter_map(|c| c.bound)
+            .min_by(|a, b| a.radius.total_cmp(&b.radius))
+            .map(|b| b.grow(k * 0.25)),
+        Op::Difference(a, _) => a.bound,
+        Op::SmoothDifference(k, a, _) => a.bound.map(|b| b.grow(k * 0.25)),
+        Op::Transform {
+            rot,
+            translate,
+            scale,
+            child,
+            ..
+        } => child.bound.map(|b| Bound {
+            center: *rot * (b.center * *scale) + *translate,
+            radius: b.radius * scale,
+        }),
+        Op::Material(_, child) => child.bound,
+        Op::Heightfield(_) | Op::Density(_) => None,
     }
 }

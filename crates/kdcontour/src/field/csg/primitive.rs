@@ -1,6 +1,6 @@
 //! Every primitive node's parameters in one place: the fields its scene-file entry
 //! has, the range each must lie in (checked in the order listed), and the
-//! [`Primitive`] and centre they compile to.
+//! [`Primitive`] and center they compile to.
 
 use super::param::{param, Param, Range, Range::*};
 use super::CsgNode;

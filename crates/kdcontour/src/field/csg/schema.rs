@@ -14,7 +14,7 @@ pub enum CsgNode {
     Sphere {
         /// Radius (> 0).
         radius: f32,
-        /// Centre.
+        /// Center.
         #[serde(default)]
         center: Vec3,
     },
@@ -22,7 +22,7 @@ pub enum CsgNode {
     Box {
         /// Half side lengths (each > 0).
         half_extents: Vec3,
-        /// Centre.
+        /// Center.
         #[serde(default)]
         center: Vec3,
     },
@@ -32,7 +32,7 @@ pub enum CsgNode {
         half_extents: Vec3,
         /// Rounding radius (> 0).
         radius: f32,
-        /// Centre.
+        /// Center.
         #[serde(default)]
         center: Vec3,
     },
@@ -42,7 +42,7 @@ pub enum CsgNode {
         major_radius: f32,
         /// Tube radius (> 0).
         minor_radius: f32,
-        /// Centre.
+        /// Center.
         #[serde(default)]
         center: Vec3,
     },
@@ -52,7 +52,7 @@ pub enum CsgNode {
         radius: f32,
         /// Half length (> 0).
         half_height: f32,
-        /// Centre.
+        /// Center.
         #[serde(default)]
         center: Vec3,
     },
@@ -62,7 +62,7 @@ pub enum CsgNode {
         radius: f32,
         /// Half length of the inner segment (>= 0).
         half_height: f32,
-        /// Centre.
+        /// Center.
         #[serde(default)]
         center: Vec3,
     },
@@ -72,7 +72,7 @@ pub enum CsgNode {
         radius: f32,
         /// Half height (> 0).
         half_height: f32,
-        /// Centre.
+        /// Center.
         #[serde(default)]
         center: Vec3,
     },

@@ -45,7 +45,7 @@ impl State {
 /// What a change to the list did.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Change {
-    /// Spheres `(centre, radius)` outside which the scene's surface and its
+    /// Spheres `(center, radius)` outside which the scene's surface and its
     /// inside / outside did not change, or `None` for everywhere.
     ///
     /// Outside a layer's bounding sphere (grown by its blend radius) its distance

@@ -35,7 +35,7 @@ fn point_in(rng: &mut Rng, lo: Vec3, hi: Vec3) -> Vec3 {
 
 #[test]
 fn the_default_gradient_resolves_far_coordinates() {
-    // A sphere of radius 10 centred far out: its exact normal is known.
+    // A sphere of radius 10 centerd far out: its exact normal is known.
     for far in [4096.0f32, 65536.0] {
         let c = Vec3::new(far, -far, 0.5 * far);
         let sphere = FnField(move |p: Vec3| (p - c).length() - 10.0);

@@ -1,6 +1,6 @@
 //! The seam walk across chunk levels: a coarser part's leaves cover `2^shift`
 //! lattice cells per side, so a fine seam edge is mapped to the coarse cell and
-//! edge it lies on (the rules are in [`crate::world::levels`]).
+//! edge it lies on (the rules are in [`crate::world`]).
 
 use super::{NodeRef, Walker, QUADRANT};
 use crate::cell::edge_index;
@@ -50,7 +50,7 @@ impl Walker<'_, '_> {
     /// component the polygon takes.
     ///
     /// On the part's own lattice that is the cell's edge on the line. A coarser part
-    /// (see [`crate::world::levels`]) may fill two quadrants, with the line crossing
+    /// (see [`crate::world`]) may fill two quadrants, with the line crossing
     /// the middle of one of its cell faces: the finer side's conformed samples give
     /// such a fine edge a crossing only when the coarse face holds a single contour
     /// segment, so any crossing edge of that face names the component.
@@ -81,7 +81,7 @@ impl Walker<'_, '_> {
         debug_assert!(on_u || on_v, "a seam line through the inside of a cell");
         // The face the line crosses: perpendicular to the on-lattice axis, on the
         // quadrant's side of the line. The fine edge runs from the midpoint of a
-        // coarse edge (along the off-lattice axis) to the face centre; the fine
+        // coarse edge (along the off-lattice axis) to the face center; the fine
         // contour through it cuts off the part of that coarse edge the midpoint
         // shares, so it takes that edge's component when the edge crosses. When it
         // does not, the face holds a single segment and any crossing edge names it.

@@ -3,14 +3,12 @@
 //! lost under a stream of edits and camera moves, LOD never re-samples, and a
 //! panicking field is reported without taking the app down.
 
-mod common;
-
+use crate::common::{app_with, applied_edits, settle, shown};
 use bevy::prelude::*;
 use bevy_kdcontour::headless::HeadlessPlugins;
 use bevy_kdcontour::prelude::*;
-use common::{app_with, applied_edits, settle, shown};
 use kdcontour::edit::EditedField;
-use kdcontour::{ChunkWorld, CsgNode, Field, IndexedMesh};
+use kdcontour::{CsgNode, Field, IndexedMesh, World};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 
@@ -43,9 +41,9 @@ fn spawn(app: &mut App, field: Arc<dyn Field>) -> Entity {
 }
 
 /// A from-scratch world of `field` at the thresholds `state` uses.
-fn fresh(field: &dyn Field, state: &VolumeState) -> ChunkWorld {
-    let w = state.world().flat().unwrap();
-    let mut f = ChunkWorld::unbounded(
+fn fresh(field: &dyn Field, state: &VolumeState) -> World {
+    let w = state.world();
+    let mut f = World::unbounded(
         Vec3::ZERO,
         w.cell_size,
         w.chunk_res,
@@ -57,12 +55,12 @@ fn fresh(field: &dyn Field, state: &VolumeState) -> ChunkWorld {
         },
     )
     .unwrap();
-    for c in w.coords() {
-        f.add_chunk(c).unwrap();
+    for c in w.chunks() {
+        f.add_chunk(c.coord).unwrap();
     }
     f.build_all(field).unwrap();
-    for c in w.coords() {
-        f.set_threshold(c, w.threshold(c));
+    for c in w.chunks() {
+        f.set_threshold(&c, w.threshold(&c));
     }
     f
 }
@@ -72,9 +70,9 @@ fn assert_matches_fresh(app: &App, volume: Entity, field: &dyn Field) {
     let f = fresh(field, state);
     let mut want = IndexedMesh::default();
     let mut total = 0;
-    for c in f.coords() {
-        f.snapshot(c).unwrap().extract(&mut want);
-        let entity = state.chunk_entity(&ChunkKey::new(0, c)).unwrap();
+    for c in f.chunks() {
+        f.snapshot(&c).unwrap().extract(&mut want);
+        let entity = state.chunk_entity(&c).unwrap();
         match shown(app, entity) {
             None => assert!(
                 want.is_empty(),
@@ -132,23 +130,16 @@ fn one_edit_rebuilds_exactly_the_chunks_it_meets() {
     let before: Vec<(IVec3, usize)> = {
         let s = app.world().get::<VolumeState>(v).unwrap();
         s.world()
-            .flat()
-            .unwrap()
-            .coords()
+            .chunks()
             .into_iter()
-            .map(|c| {
-                (
-                    c,
-                    s.world().flat().unwrap().tree(c).unwrap() as *const _ as usize,
-                )
-            })
+            .map(|c| (c.coord, s.world().tree(&c).unwrap() as *const _ as usize))
             .collect()
     };
     // A ball around the chunk corner at (1/3, 1/3, 1/3) of the cube, local space.
-    let centre = Vec3::splat(2.0 / 3.0) + Vec3::new(0.02, 0.03, 0.01);
+    let center = Vec3::splat(2.0 / 3.0) + Vec3::new(0.02, 0.03, 0.01);
     app.world_mut().write_message(ApplyEdit {
         volume: v,
-        brush: Brush::sphere(centre, 0.1, BrushOp::Add),
+        brush: Brush::sphere(center, 0.1, BrushOp::Add),
     });
     app.update();
     let applied = applied_edits(&mut app);
@@ -165,7 +156,7 @@ fn one_edit_rebuilds_exactly_the_chunks_it_meets() {
     settle(&mut app, v);
     let s = app.world().get::<VolumeState>(v).unwrap();
     for (c, ptr) in before {
-        let now = s.world().flat().unwrap().tree(c).unwrap() as *const _ as usize;
+        let now = s.world().tree(&ChunkKey::new(0, c)).unwrap() as *const _ as usize;
         assert_eq!(
             now != ptr,
             want.contains(&c),
@@ -194,7 +185,7 @@ fn a_hundred_edits_and_camera_moves_lose_nothing() {
         (seed >> 33) as f32 / (1u64 << 31) as f32
     };
     for i in 0..100 {
-        let centre = Vec3::new(next(), next(), next()) * 2.0;
+        let center = Vec3::new(next(), next(), next()) * 2.0;
         let op = if next() < 0.5 {
             BrushOp::Add
         } else {
@@ -202,7 +193,7 @@ fn a_hundred_edits_and_camera_moves_lose_nothing() {
         };
         app.world_mut().write_message(ApplyEdit {
             volume: v,
-            brush: Brush::sphere(centre, 0.05 + 0.15 * next(), op),
+            brush: Brush::sphere(center, 0.05 + 0.15 * next(), op),
         });
         if i % 7 == 0 {
             let p = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 4.0 + Vec3::ONE;
@@ -257,11 +248,9 @@ fn moving_the_camera_re_extracts_without_sampling() {
     let thresholds = |app: &App| {
         let s = app.world().get::<VolumeState>(v).unwrap();
         s.world()
-            .flat()
-            .unwrap()
-            .coords()
+            .chunks()
             .into_iter()
-            .map(|c| s.world().flat().unwrap().threshold(c))
+            .map(|c| s.world().threshold(&c))
             .collect::<Vec<_>>()
     };
     let t0 = thresholds(&app);
@@ -324,8 +313,6 @@ fn a_panicking_field_is_reported_and_the_app_keeps_running() {
 fn expected_stream(state: &VolumeState, cam: Vec3, view: f32, rows: (i32, i32)) -> Vec<IVec3> {
     let mut v: Vec<IVec3> = state
         .world()
-        .flat()
-        .unwrap()
         .chunks_near(cam, view)
         .into_iter()
         .filter(|c| (rows.0..=rows.1).contains(&c.y))
@@ -358,13 +345,13 @@ fn streaming_terrain_loads_around_the_camera_and_drops_what_it_leaves() {
     let check = |app: &mut App, at: Vec3| {
         let state = app.world().get::<VolumeState>(v).unwrap();
         let want = expected_stream(state, at, view, rows);
-        let have = state.world().flat().unwrap().coords();
+        let have: Vec<IVec3> = state.world().chunks().iter().map(|k| k.coord).collect();
         // Everything in range is loaded; anything else is within the slack.
         for c in &want {
             assert!(have.contains(c), "chunk {c} in range but not loaded");
         }
         for c in &have {
-            let (lo, hi) = state.world().flat().unwrap().chunk_bounds(*c);
+            let (lo, hi) = state.world().chunk_bounds(&ChunkKey::new(0, *c));
             assert!(
                 at.clamp(lo, hi).distance(at) <= view + 8.0,
                 "chunk {c} kept too far"
@@ -444,12 +431,8 @@ fn a_subsystem_can_be_left_out() {
     settle(&mut app, v);
     let default = KdContourSettings::default().default_threshold;
     let state = app.world().get::<VolumeState>(v).unwrap();
-    for c in state.world().flat().unwrap().coords() {
-        assert_eq!(
-            state.world().flat().unwrap().threshold(c),
-            default,
-            "chunk {c}"
-        );
+    for c in state.world().chunks() {
+        assert_eq!(state.world().threshold(&c), default, "chunk {c}");
     }
     assert_matches_fresh(&app, v, &*torus());
     // With it, the same camera sets other thresholds.
@@ -459,12 +442,11 @@ fn a_subsystem_can_be_left_out() {
     let v = spawn(&mut app, torus());
     settle(&mut app, v);
     let state = app.world().get::<VolumeState>(v).unwrap();
-    assert!(state.world().flat().unwrap().coords().iter().any(|&c| state
+    assert!(state
         .world()
-        .flat()
-        .unwrap()
-        .threshold(c)
-        != default));
+        .chunks()
+        .iter()
+        .any(|c| state.world().threshold(c) != default));
 }
 
 #[test]

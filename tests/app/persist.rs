@@ -1,15 +1,13 @@
-//! Saving edits (issue 15, "Saving"), headless: a save survives a restart and
+//! Saving edits, headless: a save survives a restart and
 //! gives the same meshes, autosave waits for the strokes to end, a save for
 //! another field or a damaged one is refused and left whole, 10,000 edits save
 //! and load, and a process killed while it autosaves leaves a whole save.
 
-mod common;
-
+use crate::common::{app_with, settle, shown};
 use bevy::prelude::*;
 use bevy_kdcontour::persist::file::{self, SaveData};
 use bevy_kdcontour::persist::SaveState;
 use bevy_kdcontour::prelude::*;
-use common::{app_with, settle, shown};
 use kdcontour::field::csg::CsgNode;
 use kdcontour::field::terrain::{Density, DensityParams};
 use std::path::{Path, PathBuf};
@@ -385,7 +383,12 @@ fn a_process_killed_while_it_autosaves_leaves_a_whole_save() {
     for (round, wait_ms) in [300u64, 600, 900, 1200, 1500].into_iter().enumerate() {
         let before = std::fs::metadata(&path).ok().map(|m| m.modified().unwrap());
         let mut child = std::process::Command::new(&exe)
-            .args(["--exact", "autosaving_child", "--ignored", "--nocapture"])
+            .args([
+                "--exact",
+                "persist::autosaving_child",
+                "--ignored",
+                "--nocapture",
+            ])
             .env("KDSAVE_CHILD_PATH", &path)
             .stdout(std::process::Stdio::null())
             .stderr(std::process::Stdio::null())

@@ -1,17 +1,18 @@
-//! The seams of a level world: which chunks meet where, who owns each seam, and
-//! the seam walk's jobs (the rules are in the parent module's docs).
+//! The seams of a world: which chunks meet where, who owns each seam, the seam
+//! walk's jobs, and extraction (the rules are in the parent module's docs).
 
-use super::LevelWorld;
+use super::layout::{ChunkKey, Layout};
+use super::World;
 use crate::kdtree::{contour, Job, KdTree, Part};
 use crate::mesh::IndexedMesh;
-use crate::world::layout::{ChunkKey, Layout};
 use glam::IVec3;
+use std::collections::HashMap;
 use std::sync::Arc;
 
 /// [`ChunkKey::order`]'s key.
 type SortKey = (i32, i32, i32, u32);
 
-/// A seam between chunks of a level world.
+/// A seam between chunks of a world.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Seam {
     /// Two chunks whose faces overlap: `low` below the face along `axis`.
@@ -65,8 +66,8 @@ impl Seam {
         }
     }
 
-    /// Order of a chunk's owned seams: by axis, the face before the edges (as
-    /// [`super::ChunkWorld`] orders them), then by position.
+    /// Order of a chunk's owned seams: by axis, the face before the edges, then by
+    /// position.
     fn order(&self) -> (usize, u8, [SortKey; 4]) {
         let z = (0, 0, 0, 0);
         match *self {
@@ -177,7 +178,7 @@ impl Layout {
     }
 }
 
-impl LevelWorld {
+impl World {
     /// Every seam that involves chunk `k` (built or not), each once
     /// ([`Layout::seams_of`]).
     pub fn seams_of(&self, k: &ChunkKey) -> Vec<Seam> {
@@ -215,7 +216,7 @@ impl LevelWorld {
                 for (q, k) in parts.iter().enumerate() {
                     p[q] = index(*k)?;
                 }
-                Job::EdgeAt {
+                Job::Edge {
                     parts: p,
                     axis,
                     line: (line * res).to_array(),
@@ -226,7 +227,7 @@ impl LevelWorld {
 
     /// What extracting chunk `k` (interior and owned seams) needs, detached from
     /// the world so a task can run it. `None` when `k` has no tree.
-    pub fn snapshot(&self, k: &ChunkKey) -> Option<LevelSnapshot> {
+    pub fn snapshot(&self, k: &ChunkKey) -> Option<ChunkSnapshot> {
         self.part(k)?;
         let mut keys: Vec<ChunkKey> = vec![*k];
         let mut index = |c: ChunkKey| -> Option<usize> {
@@ -255,18 +256,18 @@ impl LevelWorld {
                 )
             })
             .collect();
-        Some(LevelSnapshot { parts, jobs })
+        Some(ChunkSnapshot { parts, jobs })
     }
 }
 
-/// A chunk's extraction detached from its world (see [`LevelWorld::snapshot`]).
+/// A chunk's extraction detached from its world (see [`World::snapshot`]).
 #[derive(Clone)]
-pub struct LevelSnapshot {
+pub struct ChunkSnapshot {
     parts: Vec<(Arc<KdTree>, IVec3, f32, u32)>,
     jobs: Vec<Job>,
 }
 
-impl LevelSnapshot {
+impl ChunkSnapshot {
     /// Contours the chunk's interior and its owned seams into `out` (cleared).
     pub fn extract(&self, out: &mut IndexedMesh) {
         out.reset();
@@ -281,5 +282,86 @@ impl LevelSnapshot {
             })
             .collect();
         contour(&parts, &self.jobs, out);
+    }
+}
+
+impl World {
+    fn part(&self, k: &ChunkKey) -> Option<Part<'_>> {
+        let slot = self.slots.get(k)?;
+        slot.tree.as_deref().map(|tree| Part {
+            tree,
+            offset: (k.coord * self.chunk_res as i32 - IVec3::ONE) << k.level as i32,
+            threshold: slot.threshold,
+            shift: k.level,
+        })
+    }
+
+    /// Contours `seams` (and the insides of `cells`) over the built chunks they
+    /// need, into `out` (appended).
+    fn contour_seams(&self, cells: &[ChunkKey], seams: &[Seam], out: &mut IndexedMesh) {
+        let mut keys: Vec<ChunkKey> = Vec::new();
+        let mut parts: Vec<Part> = Vec::new();
+        let mut index = |k: ChunkKey| -> Option<usize> {
+            if let Some(i) = keys.iter().position(|x| *x == k) {
+                return Some(i);
+            }
+            parts.push(self.part(&k)?);
+            keys.push(k);
+            Some(keys.len() - 1)
+        };
+        let mut jobs = Vec::new();
+        for c in cells {
+            if let Some(i) = index(*c) {
+                jobs.push(Job::Cell(i));
+            }
+        }
+        for s in seams {
+            if let Some(j) = self.job(s, &mut index) {
+                jobs.push(j);
+            }
+        }
+        contour(&parts, &jobs, out);
+    }
+
+    /// Contours the inside of chunk `k` at its threshold into `out` (cleared).
+    pub fn extract_interior(&self, k: &ChunkKey, out: &mut IndexedMesh) {
+        out.reset();
+        self.contour_seams(&[*k], &[], out);
+    }
+
+    /// Contours the seams chunk `k` owns into `out` (cleared), each chunk at its
+    /// own threshold and level.
+    pub fn extract_seams(&self, k: &ChunkKey, out: &mut IndexedMesh) {
+        out.reset();
+        if self.part(k).is_some() {
+            self.contour_seams(&[], &self.owned_seams(k), out);
+        }
+    }
+
+    /// The whole world as one welded mesh: every built chunk's interior and every
+    /// seam between built chunks, vertices shared, so it can be checked for
+    /// watertightness as a whole.
+    pub fn extract_all(&self) -> IndexedMesh {
+        let chunks: Vec<ChunkKey> = self
+            .chunks()
+            .into_iter()
+            .filter(|k| self.part(k).is_some())
+            .collect();
+        let index_of: HashMap<ChunkKey, usize> =
+            chunks.iter().enumerate().map(|(i, &k)| (k, i)).collect();
+        let parts: Vec<Part> = chunks.iter().filter_map(|k| self.part(k)).collect();
+        let mut index = |k: ChunkKey| index_of.get(&k).copied();
+        let mut jobs = Vec::new();
+        for (i, k) in chunks.iter().enumerate() {
+            jobs.push(Job::Cell(i));
+            for s in self.owned_seams(k) {
+                if let Some(j) = self.job(&s, &mut index) {
+                    jobs.push(j);
+                }
+            }
+        }
+        let mut out = IndexedMesh::default();
+        contour(&parts, &jobs, &mut out);
+        out
     }
 }

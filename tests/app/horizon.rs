@@ -4,13 +4,11 @@
 //! its replacement); after the camera stops, every shown mesh equals a
 //! from-scratch build of its level world, and no edit is lost.
 
-mod common;
-
+use crate::common::{app_with, applied_edits, settle, shown};
 use bevy::prelude::*;
 use bevy_kdcontour::prelude::*;
-use common::{app_with, applied_edits, settle, shown};
 use kdcontour::field::FnField;
-use kdcontour::{Field, IndexedMesh, LevelWorld};
+use kdcontour::{Field, IndexedMesh, World};
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -92,8 +90,8 @@ fn check_cover(app: &App, volume: Entity) -> Result<usize, String> {
     for (i, &n) in count.iter().enumerate() {
         let i = i as i32;
         let at = lo + IVec3::new(i % size.x, (i / size.x) % size.y, i / (size.x * size.y));
-        let centre = at.as_vec3().xz() + 0.5;
-        let inside = centre.distance(keep.camera.xz()) <= keep.reach;
+        let center = at.as_vec3().xz() + 0.5;
+        let inside = center.distance(keep.camera.xz()) <= keep.reach;
         if n > 1 || (inside && n != 1) {
             return Err(format!("level-0 chunk {at} is shown {n} times"));
         }
@@ -105,9 +103,9 @@ fn check_cover(app: &App, volume: Entity) -> Result<usize, String> {
 /// volume's layout, field and thresholds.
 fn assert_matches_fresh(app: &App, volume: Entity) {
     let state = app.world().get::<VolumeState>(volume).unwrap();
-    let world = state.world().levels().unwrap();
+    let world = state.world();
     let showing = state.shown_chunks();
-    let mut fresh = LevelWorld::new(
+    let mut fresh = World::new(
         world.origin,
         world.cell_size,
         world.chunk_res,
@@ -173,8 +171,6 @@ fn a_flight_with_edits_keeps_the_horizon_whole_and_loses_nothing() {
         .get::<VolumeState>(v)
         .unwrap()
         .world()
-        .levels()
-        .unwrap()
         .layout()
         .lo();
     assert!(
@@ -219,7 +215,7 @@ fn a_flight_with_edits_keeps_the_horizon_whole_and_loses_nothing() {
         if state.level_change_in_progress() {
             changing += 1;
         }
-        let lo = state.world().levels().unwrap().layout().lo();
+        let lo = state.world().layout().lo();
         if regions.last() != Some(&lo) {
             regions.push(lo);
         }
@@ -235,6 +231,12 @@ fn a_flight_with_edits_keeps_the_horizon_whole_and_loses_nothing() {
     settle(&mut app, v);
     check_cover(&app, v).unwrap();
     let state = app.world().get::<VolumeState>(v).unwrap();
+    // The last layout may land after the flight when the cores are busy (the
+    // other tests of this binary run beside this one).
+    let lo = state.world().layout().lo();
+    if regions.last() != Some(&lo) {
+        regions.push(lo);
+    }
     assert_eq!(state.edit_log().len(), edits, "an edit was lost");
     assert_matches_fresh(&app, v);
     assert!(changing > 20, "levels changed in only {changing} frames");

@@ -1,17 +1,14 @@
-//! Colliders (issue 15, feature `avian`), headless, with avian's physics: a ball
+//! Colliders (feature `avian`), headless, with avian's physics: a ball
 //! comes to rest on the terrain, falls into a pit dug under it, and is stopped
 //! by a wall raised in its path; at no frame does a chunk's collider lag its
 //! mesh; only chunks near an anchor carry colliders.
-#![cfg(feature = "avian")]
 
-mod common;
-
+use crate::common::{app_with, settle};
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy_kdcontour::avian3d::prelude::*;
 use bevy_kdcontour::prelude::*;
 use bevy_kdcontour::{ColliderAnchor, ColliderSettings};
-use common::{app_with, settle};
 use kdcontour::field::csg::CsgNode;
 use std::sync::Arc;
 use std::time::Duration;

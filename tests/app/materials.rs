@@ -1,17 +1,15 @@
-//! Materials in the plugin (issue 16), headless: a volume drawn with the
+//! Materials in the plugin, headless: a volume drawn with the
 //! terrain material gets per-layer weights on every chunk vertex, equal to the
 //! field's materials there (or, for a vertex split along a hard border, those of
 //! the faces on its side) and summing to one, and the border is drawn along
 //! edges, not as a sawtooth; a volume with a plain material gets none (they would
 //! tint it).
 
-mod common;
-
+use crate::common::{app_with, applied_edits, settle};
 use bevy::mesh::VertexAttributeValues;
 use bevy::prelude::*;
 use bevy_kdcontour::material::layer_weights;
 use bevy_kdcontour::prelude::*;
-use common::{app_with, applied_edits, settle};
 use kdcontour::material::MaterialBlend;
 use kdcontour::Field;
 use std::sync::Arc;
@@ -216,20 +214,19 @@ fn a_paint_stroke_rebuilds_only_the_chunks_it_reaches_and_shows_its_material() {
     let (mut app, volume) = ground(|v| v.with_terrain_material(Handle::default()));
     let trees = |app: &App| -> Vec<(IVec3, usize)> {
         let w = app.world().get::<VolumeState>(volume).unwrap().world();
-        let flat = w.flat().unwrap();
-        flat.coords()
+        w.chunks()
             .into_iter()
-            .filter_map(|c| Some((c, flat.tree(c)? as *const _ as usize)))
+            .filter_map(|c| Some((c.coord, w.tree(&c)? as *const _ as usize)))
             .collect()
     };
     let before = trees(&app);
     // Inside chunk (1, 0, 1) (4 to 8 along x and z), three cells from its sides;
     // its top is 0.4 below chunk (1, 1, 1), whose one-cell halo it reaches.
-    let centre = Vec3::new(6.0, 3.1, 6.0);
+    let center = Vec3::new(6.0, 3.1, 6.0);
     let reached = [IVec3::new(1, 0, 1), IVec3::new(1, 1, 1)];
     app.world_mut().write_message(ApplyEdit {
         volume,
-        brush: Brush::sphere(centre, 0.5, BrushOp::Paint).with_material(3),
+        brush: Brush::sphere(center, 0.5, BrushOp::Paint).with_material(3),
     });
     app.update();
     let applied = applied_edits(&mut app);
@@ -252,7 +249,7 @@ fn a_paint_stroke_rebuilds_only_the_chunks_it_reaches_and_shows_its_material() {
     // grass (layer 0) and sums to one.
     // A vertex on the stroke's edge is split: a snow copy for the painted
     // faces and a grass one for the rest. Every place within 0.4 of the
-    // stroke's centre has a snow vertex, every place beyond 0.6 (on the grass
+    // stroke's center has a snow vertex, every place beyond 0.6 (on the grass
     // side of the ground) a grass one.
     let mut at: Vec<([f32; 3], [f32; 4])> = Vec::new();
     for (positions, _, lo, hi) in shown_meshes(&mut app) {
@@ -266,7 +263,7 @@ fn a_paint_stroke_rebuilds_only_the_chunks_it_reaches_and_shows_its_material() {
     let has = |p: [f32; 3], layer: usize| at.iter().any(|(q, l)| *q == p && l[layer] > 0.99);
     let (mut painted, mut grass) = (0, 0);
     for &(p, l) in &at {
-        let d = Vec3::from_array(p).distance(centre);
+        let d = Vec3::from_array(p).distance(center);
         if d < 0.4 {
             assert!(has(p, 3), "unpainted {l:?} at {p:?}, {d} from the stroke");
             painted += usize::from(l[3] > 0.99);

@@ -1,0 +1,80 @@
+//! The chunk pipeline, written once: samples -> Hermite data -> tree (the split
+//! search, clustering and the fold guard) -> paint -> extract. [`KdTree::build`],
+//! the world's chunks ([`crate::world::ChunkBuild`]), the meshers and the command
+//! line all go through these stages; each stays callable on its own, for
+//! benchmarks and for callers that keep a stage's output.
+//!
+//! 1. [`hermite`]: the field sampled on a grid (or samples the caller has, with
+//!    [`Hermite::new`]), edge crossings and normals found on the field;
+//! 2. [`tree`]: the k-d tree over some of its cells ([`Cells`]), its leaves held
+//!    to the field by the fold guard, its components painted with the field's
+//!    materials when it has them;
+//! 3. [`KdTree::extract`]: the mesh at a threshold, as often as wanted.
+
+use crate::error::Result;
+use crate::field::Field;
+use crate::grid::Grid;
+use crate::hermite::Hermite;
+use crate::kdtree::{build_in, BuildStats, KdTree};
+use crate::settings::Settings;
+use std::time::Instant;
+
+/// Which cells of the Hermite grid a tree is built over.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Cells {
+    /// Every cell.
+    All,
+    /// The `res`^3 cells inside a one-cell halo (a chunk: the halo's cells decide
+    /// how its boundary cells resolve ambiguous faces, but belong to its
+    /// neighbours).
+    Core(u32),
+}
+
+/// Stage 1: samples `field` on `grid` and computes the Hermite data (closing
+/// the surface with caps where `settings.boundary` asks and it leaves the grid).
+pub fn hermite(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Hermite> {
+    Hermite::from_field(field, grid, settings)
+}
+
+/// Stage 2: the retained tree over `cells` of `h` (sampled from `field`), with
+/// `settings.partition`: built top-down, clustered bottom-up, its folding leaves
+/// refused, and painted with the field's materials (when `settings.materials` and
+/// the field has them).
+pub fn tree(h: &Hermite, field: &dyn Field, settings: &Settings, cells: Cells) -> KdTree {
+    let (lo, hi) = match cells {
+        Cells::All => {
+            let g = h.grid.cells;
+            ([0, 0, 0], [g.x as u16, g.y as u16, g.z as u16])
+        }
+        Cells::Core(res) => {
+            let r = res as u16;
+            ([1, 1, 1], [r + 1, r + 1, r + 1])
+        }
+    };
+    let mut tree = build_in(h, field, settings.partition, lo, hi);
+    crate::kdtree::paint_tree(&mut tree, field, settings);
+    tree
+}
+
+impl KdTree {
+    /// Samples `field` on `grid`, computes Hermite data and builds the retained
+    /// tree over every cell, on `settings.threads` threads: the one way to build a
+    /// tree (the stages one by one are in [`crate::pipeline`]). Contour it with
+    /// [`KdTree::extract`] at any threshold.
+    pub fn build(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<KdTree> {
+        settings.run(|| {
+            let t0 = Instant::now();
+            let h = hermite(field, grid, settings)?;
+            let t1 = Instant::now();
+            let mut tree = tree(&h, field, settings, Cells::All);
+            let t2 = Instant::now();
+            tree.stats = BuildStats {
+                sample_ms: (t1 - t0).as_secs_f64() * 1e3,
+                build_ms: (t2 - t1).as_secs_f64() * 1e3,
+                active_cells: h.cells.len(),
+                crossings: h.crossings,
+            };
+            Ok(tree)
+        })?
+    }
+}

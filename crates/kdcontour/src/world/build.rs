@@ -1,0 +1,134 @@
+//! Building a world's chunks: the detached build a task runs ([`ChunkBuild`]),
+//! installing its result, and which chunks an edit sends back to it.
+
+use super::conform::{BuiltChunk, ChunkBuild, Neighbourhood};
+use super::layout::ChunkKey;
+use super::{drop_elsewhere, World};
+use crate::error::Result;
+use crate::field::Field;
+use crate::settings::Settings;
+use glam::Vec3;
+use std::sync::Arc;
+
+impl World {
+    /// Everything needed to build chunk `k` elsewhere (a task, another thread).
+    pub fn chunk_build(&self, k: &ChunkKey) -> ChunkBuild {
+        ChunkBuild {
+            key: *k,
+            grid: self.chunk_grid(k),
+            res: self.chunk_res,
+            neighbourhood: self
+                .neighbourhoods
+                .get(k)
+                .cloned()
+                .unwrap_or_else(|| Neighbourhood::of(&self.layout, k)),
+            settings: self.settings.clone(),
+            kept: self.slots.get(k).and_then(|s| s.samples.clone()),
+        }
+    }
+
+    /// Installs a chunk built by [`ChunkBuild::build`], keeping its samples when
+    /// [`World::keep_samples`] is set.
+    pub fn insert_built(&mut self, build: &ChunkBuild, built: BuiltChunk) {
+        let keep = self.keep_samples;
+        let s = self.slot_mut(&build.key);
+        let old = (
+            s.tree.replace(Arc::new(built.tree)),
+            std::mem::replace(&mut s.samples, built.samples.filter(|_| keep)),
+        );
+        s.built_for = build.neighbourhood.clone();
+        drop_elsewhere(old);
+    }
+
+    /// Drops the kept samples of `keys` (chunks not in the world are ignored):
+    /// the field changed there, so their next build samples it.
+    pub fn forget_samples(&mut self, keys: &[ChunkKey]) {
+        for k in keys {
+            if let Some(s) = self.slots.get_mut(k) {
+                drop_elsewhere(s.samples.take());
+            }
+        }
+    }
+
+    /// The field changed within `radius` of `center` (an edit): drops the kept
+    /// samples of the chunks it reaches and returns them
+    /// ([`World::chunks_near_edit`]), to rebuild.
+    pub fn edited(&mut self, center: Vec3, radius: f32) -> Vec<ChunkKey> {
+        let keys = self.chunks_near_edit(center, radius);
+        self.forget_samples(&keys);
+        keys
+    }
+
+    /// Forgets chunk `k`'s tree (a failed build): its mesh and the seams it owns
+    /// become empty, and [`World::stale`] lists it again.
+    pub fn remove_tree(&mut self, k: &ChunkKey) {
+        let s = self.slot_mut(k);
+        drop_elsewhere((s.tree.take(), s.samples.take()));
+    }
+
+    /// Samples `field` for chunk `k` (or conforms its kept samples) and builds
+    /// its tree (replacing an old one).
+    pub fn build_chunk(&mut self, k: &ChunkKey, field: &dyn Field) -> Result<()> {
+        let b = self.chunk_build(k);
+        let built = b.build(field)?;
+        self.insert_built(&b, built);
+        Ok(())
+    }
+
+    /// Builds the chunks in `keys` (in parallel over chunks).
+    pub fn build(&mut self, keys: &[ChunkKey], field: &dyn Field) -> Result<()> {
+        use rayon::prelude::*;
+        let inner = Settings {
+            threads: 0,
+            ..self.settings.clone()
+        };
+        let builds: Vec<ChunkBuild> = keys
+            .iter()
+            .map(|k| ChunkBuild {
+                settings: inner.clone(),
+                ..self.chunk_build(k)
+            })
+            .collect();
+        let built: Vec<Result<BuiltChunk>> = self
+            .settings
+            .run(|| builds.par_iter().map(|b| b.build(field)).collect())?;
+        for (b, t) in builds.iter().zip(built) {
+            self.insert_built(b, t?);
+        }
+        Ok(())
+    }
+
+    /// Builds every chunk.
+    pub fn build_all(&mut self, field: &dyn Field) -> Result<()> {
+        self.build(&self.chunks(), field)
+    }
+
+    /// Builds the chunks [`World::stale`] lists; returns them.
+    pub fn build_stale(&mut self, field: &dyn Field) -> Result<Vec<ChunkKey>> {
+        let stale = self.stale();
+        self.build(&stale, field)?;
+        Ok(stale)
+    }
+
+    /// The chunks an edit within `radius` of `center` (world units) reaches:
+    /// those whose box, grown by the cells their samples read past it, meets that
+    /// ball (one cell of halo, and one more where the chunk conforms to a coarser
+    /// neighbour). Rebuild them with [`World::build`]; every level that covers the
+    /// edit is among them. (When the field changed there, [`World::edited`] also
+    /// drops their kept samples.)
+    pub fn chunks_near_edit(&self, center: Vec3, radius: f32) -> Vec<ChunkKey> {
+        self.chunks()
+            .into_iter()
+            .filter(|k| {
+                let (lo, hi) = self.chunk_bounds(k);
+                let conforms = self
+                    .neighbourhoods
+                    .get(k)
+                    .is_some_and(|n| !n.coarser.is_empty() || n.level_faces.contains(&true));
+                let cells = if conforms { 2.0 } else { 1.0 };
+                let grow = cells * self.chunk_grid(k).cell_size;
+                center.clamp(lo - grow, hi + grow).distance(center) <= radius
+            })
+            .collect()
+    }
+}
