@@ -108,7 +108,7 @@ fn a_small_budget_refuses_each_input_before_allocating() {
             &budget("100KB"),
         ),
         &[
-            "a level world of 4096 chunks",
+            "a world of 4096 chunks",
             "over the memory budget of 97.7 KiB",
         ],
     );
