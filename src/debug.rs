@@ -7,9 +7,8 @@
 use crate::material::{TerrainMaterial, LAYERS};
 use crate::settings::{KdContourSettings, LodSettings};
 use crate::stats::MainThreadClock;
-use crate::upload::apply_meshes;
 use crate::volume::{KdChunk, KdVolume, VolumeExtent, VolumeMaterial};
-use crate::KdContourSystems;
+use crate::KdContourStep;
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
 
@@ -20,12 +19,7 @@ impl Plugin for DebugPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<MainThreadClock>()
             .init_resource::<KdContourSettings>()
-            .add_systems(
-                PostUpdate,
-                color_chunks
-                    .in_set(KdContourSystems::Apply)
-                    .after(apply_meshes),
-            );
+            .add_systems(PostUpdate, color_chunks.in_set(KdContourStep::AfterUpload));
     }
 }
 

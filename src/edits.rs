@@ -1,14 +1,13 @@
 //! Edits: [`EditsPlugin`] applies [`ApplyEdit`] brushes and [`ReplaceField`]
 //! swaps to each volume's edited field and queues a rebuild of exactly the
-//! chunks they reach (in [`KdContourSystems::Edits`]).
+//! chunks they reach (in [`KdContourSystems::Edits`](crate::KdContourSystems::Edits)).
 
 use crate::messages::{ApplyEdit, EditApplied, ReplaceField};
 use crate::state::VolumeState;
 use crate::stats::MainThreadClock;
 use crate::volume::KdVolume;
-use crate::KdContourSystems;
+use crate::KdContourStep;
 use bevy::prelude::*;
-use kdcontour::edit::EditedField;
 use kdcontour::world::ChunkKey;
 
 /// Applies [`ApplyEdit`] and [`ReplaceField`] messages.
@@ -17,7 +16,7 @@ pub struct EditsPlugin;
 impl Plugin for EditsPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<MainThreadClock>()
-            .add_systems(PostUpdate, apply_edits.in_set(KdContourSystems::Edits));
+            .add_systems(PostUpdate, apply_edits.in_set(KdContourStep::ApplyEdits));
     }
 }
 
@@ -35,20 +34,14 @@ pub(crate) fn apply_edits(
             warn!("ReplaceField: {} is not a meshed volume", msg.volume);
             continue;
         };
-        let log = state.field().log();
         let iso = state.base.1;
-        let field = match EditedField::replay(KdVolume::shifted(&msg.field.0, iso), &log) {
-            Ok(f) => f,
-            Err(e) => {
-                warn!(
-                    "ReplaceField on {}: replaying the edits failed: {e}",
-                    msg.volume
-                );
-                continue;
-            }
-        };
-        state.set_field(field);
-        state.base.0 = msg.field.0.clone();
+        if let Err(e) = state.swap_base(msg.field.0.clone(), iso) {
+            warn!(
+                "ReplaceField on {}: replaying the edits failed: {e}",
+                msg.volume
+            );
+            continue;
+        }
         // Keep the component in step (the volume subsystem then sees nothing to do).
         vol.field = msg.field.clone();
         let rebuilt = match &msg.regions {

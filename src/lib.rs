@@ -90,6 +90,7 @@ pub mod headless;
 mod horizon;
 mod lod;
 pub mod material;
+mod mesh;
 mod messages;
 #[cfg(feature = "egui")]
 pub mod panel;
@@ -109,8 +110,10 @@ pub use colliders::{ColliderAnchor, ColliderSettings, CollidersPlugin};
 #[cfg(feature = "debug")]
 pub use debug::DebugPlugin;
 pub use edits::EditsPlugin;
+pub use horizon::HorizonKeep;
 pub use lod::LodPlugin;
 pub use material::{TerrainExtension, TerrainMaterial, TerrainMaterialPlugin, TerrainTextures};
+pub use mesh::to_bevy_mesh;
 pub use messages::{
     ApplyEdit, ChunkFailed, ChunkMeshed, EditApplied, LodChanged, MessagesPlugin, ReplaceField,
 };
@@ -121,7 +124,7 @@ pub use state::VolumeState;
 pub use stats::{KdContourStats, MainThreadClock, StatsPlugin};
 pub use streaming::StreamingPlugin;
 pub use tasks::TasksPlugin;
-pub use upload::{to_bevy_mesh, UploadPlugin};
+pub use upload::UploadPlugin;
 pub use volume::{
     ChunkStatus, KdChunk, KdVolume, LodCamera, SharedField, VolumeExtent, VolumeMaterial,
     VolumePlugin,
@@ -132,9 +135,9 @@ pub mod prelude {
     pub use crate::{
         ApplyEdit, ChunkFailed, ChunkMeshed, ChunkStatus, EditApplied, EditsLoaded, EditsSaved,
         KdChunk, KdContourPlugin, KdContourPlugins, KdContourSettings, KdContourStats,
-        KdContourSystems, KdSave, KdVolume, LodCamera, LodChanged, LodSettings, PersistFailed,
-        ReplaceField, SharedField, TerrainMaterial, TerrainMaterialPlugin, TerrainTextures,
-        VolumeExtent, VolumeMaterial, VolumeState,
+        KdContourStep, KdContourSystems, KdSave, KdVolume, LodCamera, LodChanged, LodSettings,
+        PersistFailed, ReplaceField, SharedField, TerrainMaterial, TerrainMaterialPlugin,
+        TerrainTextures, VolumeExtent, VolumeMaterial, VolumeState,
     };
     pub use kdcontour::edit::{Brush, BrushOp};
     pub use kdcontour::world::ChunkKey;
@@ -157,6 +160,32 @@ pub enum KdContourSystems {
     Apply,
     /// Totals [`KdContourStats`] for the frame.
     Stats,
+}
+
+/// The steps inside the [`KdContourSystems`] sets, chained within their set: the
+/// subsystems order their systems against these, never against each other's
+/// systems, and an app may too.
+#[derive(SystemSet, Debug, Hash, PartialEq, Eq, Clone, Copy)]
+pub enum KdContourStep {
+    /// In [`KdContourSystems::Edits`]: new volumes get their meshing state.
+    CreateVolumes,
+    /// In [`KdContourSystems::Edits`]: saved edits are loaded into new volumes.
+    LoadEdits,
+    /// In [`KdContourSystems::Edits`]: volumes whose field or iso changed swap
+    /// their field and replay their edits.
+    SyncVolumes,
+    /// In [`KdContourSystems::Edits`]: [`ApplyEdit`] messages are applied.
+    ApplyEdits,
+    /// In [`KdContourSystems::Lod`]: the chunks to load, drop or give colliders
+    /// are chosen.
+    ChooseChunks,
+    /// In [`KdContourSystems::Lod`]: thresholds from the camera.
+    Thresholds,
+    /// In [`KdContourSystems::Apply`]: meshes onto the chunk entities.
+    Upload,
+    /// In [`KdContourSystems::Apply`]: what reads the uploaded meshes (the
+    /// debug colouring).
+    AfterUpload,
 }
 
 /// The README's code, compiled and run as a doctest so it cannot drift.

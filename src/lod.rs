@@ -1,14 +1,14 @@
 //! Camera-driven level of detail: [`LodPlugin`] sets each chunk's threshold
 //! from its distance to the [`LodCamera`] on the curve of
 //! [`crate::LodSettings`], with hysteresis, and queues a re-cut of the retained
-//! tree (never a re-sample) where it changed (in [`KdContourSystems::Lod`]).
+//! tree (never a re-sample) where it changed (in [`KdContourSystems::Lod`](crate::KdContourSystems::Lod)).
 
 use crate::messages::LodChanged;
 use crate::settings::KdContourSettings;
 use crate::state::VolumeState;
 use crate::stats::MainThreadClock;
-use crate::volume::{lod_camera, LodCamera};
-use crate::KdContourSystems;
+use crate::volume::{lod_camera, to_volume, LodCamera};
+use crate::KdContourStep;
 use bevy::prelude::*;
 use kdcontour::world::ChunkKey;
 
@@ -19,7 +19,7 @@ impl Plugin for LodPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<MainThreadClock>()
             .init_resource::<KdContourSettings>()
-            .add_systems(PostUpdate, update_lod.in_set(KdContourSystems::Lod));
+            .add_systems(PostUpdate, update_lod.in_set(KdContourStep::Thresholds));
     }
 }
 
@@ -45,7 +45,7 @@ pub(crate) fn update_lod(
     };
     let curve = lod.curve();
     for (entity, vol_tf, mut state) in &mut volumes {
-        let local = cam.map(|c| vol_tf.affine().inverse().transform_point3(c));
+        let local = cam.map(to_volume(vol_tf));
         // Every chunk is weighed each frame, in any order; only those whose
         // threshold changes are sorted (into the world's order, so messages
         // and queued work do not depend on hashing). A chunk whose new

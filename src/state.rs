@@ -4,41 +4,30 @@
 //! and unloading a chunk is one insert and one remove. Chunks are addressed by
 //! [`ChunkKey`] (level 0 in a one-level world).
 
-use crate::horizon::{HorizonKeep, NextLayout};
-use crate::tasks::{BuildOut, ExtractOut};
+use crate::horizon::layout::{HorizonKeep, NextLayout};
+use crate::mesh::ReadyMesh;
 use crate::volume::{ChunkStatus, KdChunk};
 use bevy::prelude::*;
 use bevy::tasks::Task;
 use kdcontour::edit::{Brush, EditedField};
+use kdcontour::world::{BuiltChunk, ChunkBuild};
 use kdcontour::world::{ChunkKey, ChunkMap, ChunkSet, Layout};
-use kdcontour::{Field, IndexedMesh, World};
+use kdcontour::{Field, World};
 use std::sync::Arc;
 
-/// A chunk mesh ready to show: made into a Bevy mesh on the task thread, so
-/// showing it on the main thread is a move, however many show in one frame.
-pub(crate) struct ReadyMesh {
-    /// The threshold it was cut at.
-    pub threshold: f32,
-    /// Its triangles.
-    pub triangles: usize,
-    /// The Bevy mesh; `None` when the chunk has no surface.
-    pub mesh: Option<Mesh>,
-    /// The collider of the same triangles, when the chunk wants one.
-    #[cfg(feature = "avian")]
-    pub collider: Option<crate::colliders::ChunkCollider>,
+/// A finished build.
+pub(crate) struct BuildOut {
+    pub(crate) generation: u64,
+    pub(crate) job: ChunkBuild,
+    pub(crate) result: Result<BuiltChunk, String>,
+    pub(crate) ms: f64,
 }
 
-impl ReadyMesh {
-    /// `mesh` (from the core) at `threshold`, as Bevy will show it.
-    pub fn new(threshold: f32, mesh: &IndexedMesh) -> Self {
-        ReadyMesh {
-            threshold,
-            triangles: mesh.triangle_count(),
-            mesh: (!mesh.is_empty()).then(|| crate::upload::to_bevy_mesh(mesh)),
-            #[cfg(feature = "avian")]
-            collider: None,
-        }
-    }
+/// A finished extraction.
+pub(crate) struct ExtractOut {
+    pub(crate) stamp: u64,
+    pub(crate) mesh: ReadyMesh,
+    pub(crate) ms: f64,
 }
 
 /// Everything the plugin tracks for one loaded chunk.
@@ -184,6 +173,16 @@ impl VolumeState {
     /// Replaces the field (the caller marks what to rebuild).
     pub(crate) fn set_field(&mut self, field: EditedField) {
         self.field = field;
+    }
+
+    /// Puts the edit log back on a new base field and iso (the volume's field
+    /// was swapped): the edits are replayed on `field` shifted by `iso`, and the
+    /// caller marks what to rebuild. On an error nothing changes.
+    pub(crate) fn swap_base(&mut self, field: Arc<dyn Field>, iso: f32) -> kdcontour::Result<()> {
+        let log = self.field.log();
+        self.field = EditedField::replay(crate::volume::KdVolume::shifted(&field, iso), &log)?;
+        self.base = (field, iso);
+        Ok(())
     }
 
     /// The edit log, oldest first (serialisable with serde).

@@ -2,15 +2,14 @@
 //! ([`crate::KdVolume::streaming`]) around the [`LodCamera`], nearest first, and
 //! drops those left behind; lays horizon volumes ([`crate::KdVolume::horizon`])
 //! out in chunk levels around the camera ([`crate::horizon`]); and for every
-//! volume points scheduling at the camera (in [`KdContourSystems::Lod`], before
+//! volume points scheduling at the camera (in [`KdContourSystems::Lod`](crate::KdContourSystems::Lod), before
 //! thresholds are set).
 
-use crate::lod::update_lod;
 use crate::settings::KdContourSettings;
 use crate::state::VolumeState;
 use crate::stats::MainThreadClock;
-use crate::volume::{lod_camera, KdVolume, LodCamera, VolumeExtent};
-use crate::KdContourSystems;
+use crate::volume::{lod_camera, to_volume, KdVolume, LodCamera, VolumeExtent};
+use crate::KdContourStep;
 use bevy::prelude::*;
 
 /// Streams chunks around the camera.
@@ -22,9 +21,7 @@ impl Plugin for StreamingPlugin {
             .init_resource::<KdContourSettings>()
             .add_systems(
                 PostUpdate,
-                stream_chunks
-                    .in_set(KdContourSystems::Lod)
-                    .before(update_lod),
+                stream_chunks.in_set(KdContourStep::ChooseChunks),
             );
     }
 }
@@ -43,9 +40,7 @@ fn stream_chunks(
     let cam = lod_camera(&camera);
     for (entity, vol, vol_tf, mut state) in &mut volumes {
         let state = &mut *state;
-        let local = cam
-            .map(|c| vol_tf.affine().inverse().transform_point3(c))
-            .unwrap_or(Vec3::ZERO);
+        let local = cam.map(to_volume(vol_tf)).unwrap_or(Vec3::ZERO);
         state.focus = local;
         let (view_distance, min_y, max_y) = match vol.extent {
             VolumeExtent::Streaming {

@@ -6,32 +6,18 @@
 //! [`KdContourSystems::Poll`]): a result from an older field or threshold is
 //! dropped, and a panic inside a build is reported as [`ChunkFailed`].
 
+use crate::mesh::ReadyMesh;
 use crate::messages::ChunkFailed;
 use crate::settings::KdContourSettings;
-use crate::state::{ReadyMesh, VolumeState};
+use crate::state::{BuildOut, ExtractOut, VolumeState};
 use crate::stats::{KdContourStats, MainThreadClock};
 use crate::volume::{ChunkStatus, KdChunk};
 use crate::workers::ChunkWorkers;
 use crate::KdContourSystems;
 use bevy::prelude::*;
-use bevy::tasks::{futures::check_ready, AsyncComputeTaskPool};
-use kdcontour::world::{BuiltChunk, ChunkBuild, ChunkKey};
+use bevy::tasks::futures::check_ready;
+use kdcontour::world::ChunkKey;
 use kdcontour::IndexedMesh;
-
-/// A finished build.
-pub(crate) struct BuildOut {
-    generation: u64,
-    job: ChunkBuild,
-    result: Result<BuiltChunk, String>,
-    ms: f64,
-}
-
-/// A finished extraction.
-pub(crate) struct ExtractOut {
-    stamp: u64,
-    mesh: ReadyMesh,
-    ms: f64,
-}
 
 /// Starts and collects meshing tasks.
 pub struct TasksPlugin;
@@ -134,7 +120,7 @@ impl VolumeState {
                     // vertices split along hard material borders, so a border
                     // is drawn along the crease, not as a sawtooth across it.
                     #[cfg(feature = "avian")]
-                    let collider = layers.and_then(|l| crate::colliders::build(&mesh, l));
+                    let collider = layers.and_then(|l| crate::colliders::trimesh::build(&mesh, l));
                     kdcontour::material::split_borders(&mut mesh, &field, cell);
                     #[allow(unused_mut)]
                     let mut ready = ReadyMesh::new(threshold, &mesh);
@@ -173,14 +159,6 @@ impl VolumeState {
         }
         true
     }
-}
-
-/// Drops `garbage` on a task thread: freeing many meshes or trees costs the
-/// main thread milliseconds.
-pub(crate) fn drop_elsewhere<T: Send + 'static>(garbage: T) {
-    AsyncComputeTaskPool::get()
-        .spawn(async move { drop(garbage) })
-        .detach();
 }
 
 /// The text of a caught panic.

@@ -1,21 +1,18 @@
 //! Upload: [`UploadPlugin`] turns finished extractions into Bevy meshes on the
 //! chunk entities, nearest the camera first and at most
 //! [`KdContourSettings::max_uploads_per_frame`] a frame (in
-//! [`KdContourSystems::Apply`]), and sends [`ChunkMeshed`].
+//! [`KdContourSystems::Apply`](crate::KdContourSystems::Apply)), and sends [`ChunkMeshed`].
 
 use crate::material::TerrainMaterial;
 use crate::messages::ChunkMeshed;
 use crate::settings::KdContourSettings;
 use crate::state::VolumeState;
 use crate::stats::MainThreadClock;
-use crate::tasks::drop_elsewhere;
 use crate::volume::{ChunkStatus, KdChunk, KdVolume, VolumeMaterial};
-use crate::KdContourSystems;
-use bevy::asset::RenderAssetUsages;
-use bevy::mesh::{Indices, PrimitiveTopology};
+use crate::workers::drop_elsewhere;
+use crate::KdContourStep;
 use bevy::prelude::*;
 use kdcontour::world::ChunkKey;
-use kdcontour::IndexedMesh;
 
 /// Uploads chunk meshes.
 pub struct UploadPlugin;
@@ -24,35 +21,8 @@ impl Plugin for UploadPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<MainThreadClock>()
             .init_resource::<KdContourSettings>()
-            .add_systems(PostUpdate, apply_meshes.in_set(KdContourSystems::Apply));
+            .add_systems(PostUpdate, apply_meshes.in_set(KdContourStep::Upload));
     }
-}
-
-/// A core mesh as a Bevy triangle-list mesh (positions, normals, u32 indices), as
-/// the plugin uploads it. A mesh that carries materials also gets the terrain
-/// material's layer weights ([`crate::material::layer_weights`]): layers 0-3 as
-/// vertex colours, 4-5 as the UV set (`ATTRIBUTE_UV_0`: chunk meshes have no texture
-/// coordinates, and Bevy 0.19 does not build a second UV set without a first).
-pub fn to_bevy_mesh(m: &IndexedMesh) -> Mesh {
-    let mesh = Mesh::new(
-        PrimitiveTopology::TriangleList,
-        RenderAssetUsages::default(),
-    )
-    .with_inserted_attribute(
-        Mesh::ATTRIBUTE_POSITION,
-        m.positions.iter().map(|p| p.to_array()).collect::<Vec<_>>(),
-    )
-    .with_inserted_attribute(
-        Mesh::ATTRIBUTE_NORMAL,
-        m.normals.iter().map(|n| n.to_array()).collect::<Vec<_>>(),
-    )
-    .with_inserted_indices(Indices::U32(m.indices.clone()));
-    if m.materials.len() != m.positions.len() {
-        return mesh;
-    }
-    let (lo, hi) = crate::material::layer_weights(&m.materials);
-    mesh.with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, lo)
-        .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, hi)
 }
 
 pub(crate) fn apply_meshes(

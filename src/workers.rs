@@ -116,6 +116,14 @@ impl ChunkWorkers {
     }
 }
 
+/// Drops `garbage` on a task thread: freeing many meshes or trees costs the
+/// main thread milliseconds.
+pub(crate) fn drop_elsewhere<T: Send + 'static>(garbage: T) {
+    AsyncComputeTaskPool::get()
+        .spawn(async move { drop(garbage) })
+        .detach();
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

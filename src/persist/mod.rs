@@ -17,7 +17,7 @@ pub mod file;
 
 use crate::state::VolumeState;
 use crate::stats::MainThreadClock;
-use crate::KdContourSystems;
+use crate::{KdContourStep, KdContourSystems};
 use bevy::prelude::*;
 use bevy::tasks::{block_on, futures::check_ready, IoTaskPool, Task};
 use file::{PersistError, SaveData};
@@ -38,10 +38,7 @@ impl Plugin for PersistPlugin {
             .add_systems(
                 PostUpdate,
                 (
-                    load_saves
-                        .in_set(KdContourSystems::Edits)
-                        .after(crate::volume::init_volumes)
-                        .before(crate::volume::sync_volumes),
+                    load_saves.in_set(KdContourStep::LoadEdits),
                     autosave.in_set(KdContourSystems::Stats),
                 ),
             )

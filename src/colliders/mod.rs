@@ -17,15 +17,17 @@
 //!
 //! Add avian's `PhysicsPlugins` yourself (the plugin does not step physics).
 
-use crate::lod::update_lod;
 use crate::state::VolumeState;
 use crate::stats::MainThreadClock;
-use crate::volume::{KdChunk, LodCamera};
-use crate::KdContourSystems;
-use avian3d::prelude::{Collider, CollisionLayers, RigidBody, TrimeshFlags};
+use crate::volume::{to_volume, KdChunk, LodCamera};
+use crate::{KdContourStep, KdContourSystems};
+use avian3d::prelude::{Collider, CollisionLayers, RigidBody};
 use bevy::prelude::*;
 use kdcontour::world::ChunkKey;
-use kdcontour::IndexedMesh;
+
+pub(crate) mod trimesh;
+
+use trimesh::ChunkCollider;
 
 /// Chunk colliders near the camera and anchors.
 pub struct CollidersPlugin;
@@ -39,9 +41,7 @@ impl Plugin for CollidersPlugin {
             .add_systems(
                 PostUpdate,
                 (
-                    want_colliders
-                        .in_set(KdContourSystems::Lod)
-                        .before(update_lod),
+                    want_colliders.in_set(KdContourStep::ChooseChunks),
                     relayer_colliders.in_set(KdContourSystems::Apply),
                 ),
             );
@@ -81,31 +81,6 @@ impl Default for ColliderSettings {
 #[derive(Component, Clone, Copy, Debug, Default, Reflect)]
 #[reflect(Component)]
 pub struct ColliderAnchor;
-
-/// A chunk's collider, built in its extraction task, and its layers.
-pub(crate) type ChunkCollider = (Collider, CollisionLayers);
-
-/// The trimesh collider of `mesh` (in the volume's local space, as the chunk
-/// entity's), or `None` for an empty mesh or one avian refuses.
-pub(crate) fn build(mesh: &IndexedMesh, layers: CollisionLayers) -> Option<ChunkCollider> {
-    if mesh.is_empty() {
-        return None;
-    }
-    let vertices = mesh.positions.clone();
-    let indices: Vec<[u32; 3]> = mesh
-        .indices
-        .chunks_exact(3)
-        .map(|t| [t[0], t[1], t[2]])
-        .collect();
-    // Internal edges fixed so bodies slide over triangle edges without bumps.
-    match Collider::try_trimesh_with_config(vertices, indices, TrimeshFlags::FIX_INTERNAL_EDGES) {
-        Ok(c) => Some((c, layers)),
-        Err(e) => {
-            warn!("a chunk's trimesh collider failed: {e:?}");
-            None
-        }
-    }
-}
 
 /// Puts a chunk's new collider on its entity, or takes the old one away.
 pub(crate) fn attach(commands: &mut Commands, chunk: Entity, collider: Option<ChunkCollider>) {
@@ -164,11 +139,8 @@ fn want_colliders(
         state.colliders = settings
             .enabled
             .then_some((settings.threshold, settings.layers));
-        let to_local = vol_tf.affine().inverse();
-        let points: Vec<Vec3> = anchors
-            .iter()
-            .map(|a| to_local.transform_point3(a.translation()))
-            .collect();
+        let to_local = to_volume(vol_tf);
+        let points: Vec<Vec3> = anchors.iter().map(|a| to_local(a.translation())).collect();
         // Marks on the slots rather than a set of keys: the near chunks' seam
         // owners are looked up once each, and nothing is hashed twice.
         for slot in state.slots.values_mut() {

@@ -36,17 +36,19 @@
 //!
 //! The first layout of a volume replaces nothing: its chunks show as they land.
 
+pub(crate) mod layout;
+
+pub use layout::{horizon_layout, HorizonKeep};
+use layout::{top_level, NextLayout, Rows};
+
 use crate::state::{Transition, VolumeState};
-use crate::tasks::drop_elsewhere;
 use crate::volume::KdVolume;
+use crate::workers::drop_elsewhere;
 use bevy::prelude::*;
 use bevy::tasks::{futures::check_ready, AsyncComputeTaskPool};
 use kdcontour::world::layout::MAX_LEVEL;
-use kdcontour::world::{ChunkKey, ChunkMap, ChunkSet, Layout, PreparedLayout};
+use kdcontour::world::{ChunkKey, ChunkSet, Layout};
 use kdcontour::{Settings, World};
-
-/// Level-0 chunk rows `min_y..=max_y`.
-type Rows = (i32, i32);
 
 /// The level world of a new horizon volume (its layout comes from the camera
 /// when streaming first runs). Checks the extent's settings.
@@ -94,64 +96,6 @@ pub(crate) fn new_world(
         threshold,
         settings,
     )
-}
-
-/// The top level: the smallest whose chunks are at least `view_cells` wide.
-fn top_level(chunk_res: u32, view_cells: u32) -> u32 {
-    let chunks = view_cells.div_ceil(chunk_res.max(1)).max(1);
-    chunks.next_power_of_two().trailing_zeros()
-}
-
-/// The layout of a horizon volume of `chunk_res`-cell chunks with the camera at
-/// `cam` (level-0 chunk units): see the module docs.
-pub fn horizon_layout(
-    chunk_res: u32,
-    cam: Vec3,
-    (view_cells, level0_cells): (u32, u32),
-    (min_y, max_y): Rows,
-) -> kdcontour::Result<Layout> {
-    let top = top_level(chunk_res, view_cells);
-    let side = 1i32 << top;
-    let held = (cam / side as f32).floor().as_ivec3();
-    let lo = IVec3::new(
-        (held.x - 1) * side,
-        min_y.div_euclid(side) * side,
-        (held.z - 1) * side,
-    );
-    let hi = IVec3::new(
-        (held.x + 2) * side,
-        (max_y.div_euclid(side) + 1) * side,
-        (held.z + 2) * side,
-    );
-    let ring = level0_cells as f32 / (2 * chunk_res) as f32;
-    Layout::around(lo, hi, top, cam, ring)
-}
-
-/// Whether chunk `k` reaches into level-0 chunk rows `rows`.
-fn in_rows(k: &ChunkKey, (min_y, max_y): Rows) -> bool {
-    k.lo().y <= max_y && k.hi().y > min_y
-}
-
-/// Which chunks of a horizon layout are built and shown: those that reach into
-/// the rows and come within the view distance of the camera along x and z.
-/// Every point of the rows within `reach` of the camera lies in a kept chunk.
-#[derive(Clone, Debug, PartialEq)]
-pub struct HorizonKeep {
-    /// The camera the layout was made for (level-0 chunk units).
-    pub camera: Vec3,
-    /// The view distance along x and z (level-0 chunks).
-    pub reach: f32,
-    /// Level-0 chunk rows `min_y..=max_y`.
-    pub rows: (i32, i32),
-}
-
-impl HorizonKeep {
-    /// Whether chunk `k` is built and shown.
-    pub fn keeps(&self, k: &ChunkKey) -> bool {
-        let c = self.camera.xz();
-        let nearest = c.clamp(k.lo().as_vec3().xz(), k.hi().as_vec3().xz());
-        in_rows(k, self.rows) && nearest.distance(c) <= self.reach
-    }
 }
 
 /// Follows the camera: when it enters another level-0 chunk (and no level
@@ -204,48 +148,6 @@ pub(crate) fn stream(
         AsyncComputeTaskPool::get()
             .spawn(async move { NextLayout::new(horizon_layout(res, cam, cells, rows)?, keep) }),
     );
-}
-
-/// What a level change needs to know of its new layout, worked out on a task
-/// thread so the main thread only does the bookkeeping.
-pub(crate) struct NextLayout {
-    prepared: PreparedLayout,
-    keep: HorizonKeep,
-    /// The chunks the view keeps, in layout order.
-    kept: Vec<ChunkKey>,
-    /// For each kept chunk, the chunks whose owned seams touch it.
-    owners: ChunkMap<Vec<ChunkKey>>,
-    /// For each kept chunk, the chunks of the seams it owns.
-    partners: ChunkMap<Vec<ChunkKey>>,
-}
-
-impl NextLayout {
-    fn new(layout: Layout, keep: HorizonKeep) -> kdcontour::Result<Self> {
-        let prepared = PreparedLayout::new(layout)?;
-        let l = prepared.layout();
-        let kept: Vec<ChunkKey> = l.chunks().into_iter().filter(|k| keep.keeps(k)).collect();
-        let owners = kept
-            .iter()
-            .map(|k| (*k, l.seam_owners_touching(k)))
-            .collect();
-        let partners = kept
-            .iter()
-            .map(|k| {
-                let mut v: Vec<ChunkKey> =
-                    l.owned_seams(k).iter().flat_map(|s| s.chunks()).collect();
-                v.sort_by_key(|c| c.order());
-                v.dedup();
-                (*k, v)
-            })
-            .collect();
-        Ok(NextLayout {
-            prepared,
-            keep,
-            kept,
-            owners,
-            partners,
-        })
-    }
 }
 
 impl VolumeState {
@@ -398,6 +300,7 @@ impl VolumeState {
 
 #[cfg(test)]
 mod tests {
+    use super::layout::in_rows;
     use super::*;
 
     #[test]

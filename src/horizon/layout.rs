@@ -1,0 +1,110 @@
+//! A horizon volume's layouts: the chunk levels around a camera
+//! ([`horizon_layout`]), which of them are kept ([`HorizonKeep`]), and what a
+//! level change needs to know of a new one, worked out off the main thread
+//! ([`NextLayout`]).
+
+use bevy::prelude::*;
+use kdcontour::world::{ChunkKey, ChunkMap, Layout, PreparedLayout};
+
+/// Level-0 chunk rows `min_y..=max_y`.
+pub(crate) type Rows = (i32, i32);
+
+/// The top level: the smallest whose chunks are at least `view_cells` wide.
+pub(crate) fn top_level(chunk_res: u32, view_cells: u32) -> u32 {
+    let chunks = view_cells.div_ceil(chunk_res.max(1)).max(1);
+    chunks.next_power_of_two().trailing_zeros()
+}
+
+/// The layout of a horizon volume of `chunk_res`-cell chunks with the camera at
+/// `cam` (level-0 chunk units): see the module docs.
+pub fn horizon_layout(
+    chunk_res: u32,
+    cam: Vec3,
+    (view_cells, level0_cells): (u32, u32),
+    (min_y, max_y): Rows,
+) -> kdcontour::Result<Layout> {
+    let top = top_level(chunk_res, view_cells);
+    let side = 1i32 << top;
+    let held = (cam / side as f32).floor().as_ivec3();
+    let lo = IVec3::new(
+        (held.x - 1) * side,
+        min_y.div_euclid(side) * side,
+        (held.z - 1) * side,
+    );
+    let hi = IVec3::new(
+        (held.x + 2) * side,
+        (max_y.div_euclid(side) + 1) * side,
+        (held.z + 2) * side,
+    );
+    let ring = level0_cells as f32 / (2 * chunk_res) as f32;
+    Layout::around(lo, hi, top, cam, ring)
+}
+
+/// Whether chunk `k` reaches into level-0 chunk rows `rows`.
+pub(crate) fn in_rows(k: &ChunkKey, (min_y, max_y): Rows) -> bool {
+    k.lo().y <= max_y && k.hi().y > min_y
+}
+
+/// Which chunks of a horizon layout are built and shown: those that reach into
+/// the rows and come within the view distance of the camera along x and z.
+/// Every point of the rows within `reach` of the camera lies in a kept chunk.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HorizonKeep {
+    /// The camera the layout was made for (level-0 chunk units).
+    pub camera: Vec3,
+    /// The view distance along x and z (level-0 chunks).
+    pub reach: f32,
+    /// Level-0 chunk rows `min_y..=max_y`.
+    pub rows: (i32, i32),
+}
+
+impl HorizonKeep {
+    /// Whether chunk `k` is built and shown.
+    pub fn keeps(&self, k: &ChunkKey) -> bool {
+        let c = self.camera.xz();
+        let nearest = c.clamp(k.lo().as_vec3().xz(), k.hi().as_vec3().xz());
+        in_rows(k, self.rows) && nearest.distance(c) <= self.reach
+    }
+}
+
+/// What a level change needs to know of its new layout, worked out on a task
+/// thread so the main thread only does the bookkeeping.
+pub(crate) struct NextLayout {
+    pub(crate) prepared: PreparedLayout,
+    pub(crate) keep: HorizonKeep,
+    /// The chunks the view keeps, in layout order.
+    pub(crate) kept: Vec<ChunkKey>,
+    /// For each kept chunk, the chunks whose owned seams touch it.
+    pub(crate) owners: ChunkMap<Vec<ChunkKey>>,
+    /// For each kept chunk, the chunks of the seams it owns.
+    pub(crate) partners: ChunkMap<Vec<ChunkKey>>,
+}
+
+impl NextLayout {
+    pub(crate) fn new(layout: Layout, keep: HorizonKeep) -> kdcontour::Result<Self> {
+        let prepared = PreparedLayout::new(layout)?;
+        let l = prepared.layout();
+        let kept: Vec<ChunkKey> = l.chunks().into_iter().filter(|k| keep.keeps(k)).collect();
+        let owners = kept
+            .iter()
+            .map(|k| (*k, l.seam_owners_touching(k)))
+            .collect();
+        let partners = kept
+            .iter()
+            .map(|k| {
+                let mut v: Vec<ChunkKey> =
+                    l.owned_seams(k).iter().flat_map(|s| s.chunks()).collect();
+                v.sort_by_key(|c| c.order());
+                v.dedup();
+                (*k, v)
+            })
+            .collect();
+        Ok(NextLayout {
+            prepared,
+            keep,
+            kept,
+            owners,
+            partners,
+        })
+    }
+}
