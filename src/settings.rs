@@ -56,7 +56,7 @@ pub struct KdContourSettings {
     /// Most chunk builds and extractions running or queued for a worker at once.
     pub max_tasks_in_flight: usize,
     /// Threads that build and extract chunks (0: one per core). They are the
-    /// plugin's own ([`crate::workers::ChunkWorkers`]), not Bevy's task pools.
+    /// plugin's own, at a lower priority than the frame's, not Bevy's task pools.
     pub chunk_threads: usize,
     /// Most chunk meshes uploaded per frame.
     pub max_uploads_per_frame: usize,

@@ -43,7 +43,7 @@ pub enum VolumeExtent {
     },
     /// Unbounded terrain seen to the horizon: chunks whose cells double with
     /// distance from the [`LodCamera`] (an octree of chunk levels, see
-    /// [`crate::horizon`]), so the cost of a view grows with the log of its
+    /// [`kdcontour::world`]), so the cost of a view grows with the log of its
     /// distance. Finest (level-0) chunks reach about `level0_cells` cells from
     /// the camera, each coarser level about twice as far, and the terrain reaches
     /// at least `view_cells` cells out along x and z. Chunks that lie wholly

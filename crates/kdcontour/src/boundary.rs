@@ -74,7 +74,7 @@ pub fn padded(grid: &Grid) -> Grid {
     }
 }
 
-/// The samples of [`padded`]`(grid)`: `values` inside, [`FAR`] (outside, never
+/// The samples of [`padded`]`(grid)`: `values` inside, `FAR` (outside, never
 /// evaluated) on the new corners.
 pub fn pad_values(grid: &Grid, values: &[f32]) -> Vec<f32> {
     let big = padded(grid);

@@ -1,5 +1,5 @@
 //! Uniform Dual Marching Cubes straight from the Hermite data: one vertex per cell
-//! patch ([`Hermite::patch_vertex`]), one quad per crossing edge. It shares no
+//! patch (the Hermite data's patch vertices), one quad per crossing edge. It shares no
 //! code with the k-d tree walk and serves as the oracle for threshold < 0. Vertices and normals are stored in the
 //! k-d tree's packed form ([`Comp::pack`]), so both give bitwise the same positions.
 

@@ -131,7 +131,7 @@ impl Qef {
     /// The minimiser of `E1` within the box `[lo, hi]` and `E1` there.
     ///
     /// The unconstrained minimiser comes from a truncated pseudo-inverse around the
-    /// mass point (see [`SVD_CUTOFF`]). When it leaves the box (a crease that passes
+    /// mass point (see `SVD_CUTOFF`). When it leaves the box (a crease that passes
     /// just outside the cell), clamping its coordinates would pull it off the
     /// surface. Instead the coordinates that leave are held on the box and the
     /// others re-solved, up to three rounds (an active-set method); the result is

@@ -1,8 +1,8 @@
 //! The geometric predicates the mesher and its checker share, so that what the
 //! pipeline keeps out ([`crate::facing`], the cells' vertices, the fold guard,
-//! material borders) is judged by the same definitions [`crate::validate`]
+//! material borders) is judged by the same definitions [`crate::validate()`]
 //! counts: a triangle's normal, a flip against the field's gradient, zero area,
-//! a crease, and the triangle-triangle contact test ([`tritri`]).
+//! a crease, and the triangle-triangle contact test (`tritri`).
 
 pub(crate) mod tritri;
 

@@ -34,7 +34,7 @@ pub struct ActiveCell {
     pub config: u8,
     /// Face resolution mask (see [`crate::cell`]).
     pub mask: u8,
-    /// Index of its first patch in [`Hermite::patch_qef`].
+    /// Index of its first patch in the patch QEFs.
     pub patch_base: u32,
 }
 
@@ -239,7 +239,7 @@ impl Hermite {
     }
 
     /// The surface this data's polygons are held to: `field`, the field it was
-    /// sampled from, cut by the caps' box when capped ([`Hermite::capped`]).
+    /// sampled from, cut by the caps' box when capped (`Hermite::capped`).
     pub fn surface<'a>(&self, field: &'a dyn Field) -> Surface<'a> {
         Surface::of(field, self.capped.as_ref())
     }

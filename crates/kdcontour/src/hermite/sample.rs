@@ -1,6 +1,6 @@
 //! Sampling the field on the grid's corners for Hermite data: every corner, or
 //! (fields with a Lipschitz bound) blocks proved far from the surface skipped,
-//! their corners [`FAR`] with the proved sign; a whole grid proved one-signed is
+//! their corners `FAR` with the proved sign; a whole grid proved one-signed is
 //! built from signs alone ([`one_sign`]).
 
 use super::check_grid;
@@ -19,7 +19,7 @@ const SKIP_BLOCK: u32 = 4;
 
 /// The samples of `grid` when [`Field::bound`] over its box grown by `margin`
 /// cells (plus one more, for the rounding of corner positions) proves one strict
-/// sign: every corner [`FAR`] with that sign, as [`sample`]'s skipped blocks, and
+/// sign: every corner `FAR` with that sign, as [`sample`]'s skipped blocks, and
 /// no evaluation. `None` when the bound cannot tell; the grid is checked as
 /// [`sample`] checks it either way.
 pub fn one_sign(
@@ -43,12 +43,12 @@ pub fn one_sign(
 /// Samples `field` at every corner of `grid`, in parallel over z slabs.
 ///
 /// Without a Lipschitz bound, layers of corners (one y, all x and z) outside the
-/// span that [`Field::bound`] cannot prove one-signed get [`FAR`] with their
+/// span that [`Field::bound`] cannot prove one-signed get `FAR` with their
 /// sign instead of an evaluation.
 ///
 /// With a Lipschitz bound `L`, the field is first evaluated at the center of every
 /// block of `SKIP_BLOCK`³ cells; a block whose center value exceeds `L` times its
-/// half-diagonal holds no surface, and its corners get [`FAR`] with the center's
+/// half-diagonal holds no surface, and its corners get `FAR` with the center's
 /// sign instead of an evaluation. Only their sign is meaningful: a crossing next to
 /// such a corner evaluates it on the field.
 pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Vec<f32>> {
@@ -89,7 +89,7 @@ pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Vec
 
 /// Samples with [`Field::sample_grid`] in parallel z slabs, except the layers of
 /// corners at one y (whole xz planes) below the lowest or above the highest layer
-/// that [`Field::bound`] cannot prove one-signed: those get [`FAR`] with their
+/// that [`Field::bound`] cannot prove one-signed: those get `FAR` with their
 /// sign, as skipped blocks do (a terrain chunk far larger than its hills'
 /// height evaluates only the layers that reach them).
 fn sample_layers(field: &dyn Field, grid: &Grid, values: &mut [f32]) {

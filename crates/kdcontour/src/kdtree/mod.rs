@@ -2,7 +2,7 @@
 //! data, retained, and contoured at any error threshold without re-sampling.
 //!
 //! Which file holds which algorithm:
-//! - `mod.rs` (here): the retained tree ([`KdTree`], [`KdNode`]) and its queries.
+//! - `mod.rs` (here): the retained tree ([`KdTree`], `KdNode`) and its queries.
 //! - `build.rs`: the build driver, the top-down recursion of section 4.3 over
 //!   per-task node arenas (parallel near the root, the same tree on any thread
 //!   count) and cell leaves; `arena.rs` what one build works in. [`KdTree::build`]

@@ -1,9 +1,9 @@
 //! Materials carried by a field: which material is where, as up to four ids with
-//! weights ([`MaterialBlend`]), read by [`Field::material`] at each mesh vertex.
+//! weights ([`MaterialBlend`]), read by [`crate::Field::material`] at each mesh vertex.
 //!
-//! A field that has materials says so ([`Field::has_materials`]); then every mesh
+//! A field that has materials says so ([`crate::Field::has_materials`]); then every mesh
 //! the core makes from it carries one blend per vertex
-//! ([`IndexedMesh::materials`]), and the tree keeps material borders crisp: a node
+//! ([`crate::IndexedMesh::materials`]), and the tree keeps material borders crisp: a node
 //! whose surface spans a border is never a leaf (see `kdtree/build.rs` and
 //! [`Settings::material_borders`](crate::Settings::material_borders)). Fields
 //! without materials give the same meshes as before, with no blends. A mesh to

@@ -1,6 +1,6 @@
 //! A chunk's build ([`ChunkBuild`]): its samples (the field, except where the
 //! chunk meets a chunk of another level: the rules are in [`super`]'s docs), then
-//! the chunk pipeline ([`crate::kdtree::pipeline`]).
+//! the chunk pipeline ([`crate::pipeline`]).
 
 use super::layout::{ChunkKey, Layout};
 use crate::error::{Error, Result};

@@ -59,7 +59,7 @@
 //!    seam, coarse or fine, separates its outside corners and joins its inside
 //!    ones: the resolution rule 1 gives the coarse faces.
 //!
-//! The seam walk ([`crate::kdtree::contour`]) places every chunk on the level-0
+//! The seam walk (`kdtree/contour.rs`) places every chunk on the level-0
 //! lattice with its own shift: a coarse node's box is its cells times `2^level`. It
 //! reads a seam line's signs from the finest tree around it, steps along it by that
 //! tree's cells, and maps each fine crossing to each quadrant's leaf: on a coarse
