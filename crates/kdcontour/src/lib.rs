@@ -134,6 +134,7 @@ pub mod mesh;
 pub mod meshers;
 pub mod pipeline;
 pub mod qef;
+mod root;
 pub mod scenes;
 pub mod settings;
 pub mod skeleton_climbing;

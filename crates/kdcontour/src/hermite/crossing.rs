@@ -9,6 +9,7 @@ use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::grid::Grid;
 use crate::material;
+use crate::root::Bracket;
 use glam::{UVec3, Vec3};
 use rayon::prelude::*;
 
@@ -174,9 +175,8 @@ fn find_root(
     v1: f32,
     iterations: u32,
 ) -> Result<(f32, bool)> {
-    let (mut t0, mut f0, mut t1, mut f1) = (0f32, v0, 1f32, v1);
-    let mut t = (f0 / (f0 - f1)).clamp(0.0, 1.0);
-    let mut side = 0i8;
+    let mut b = Bracket::new(v0, v1);
+    let mut t = (v0 / (v0 - v1)).clamp(0.0, 1.0);
     // Converged when the field is within 1e-5 cells of zero (distance units for
     // SDFs) or the bracket is 1e-5 cells wide.
     let tol = 1e-5 * grid.cell_size;
@@ -197,7 +197,7 @@ fn find_root(
             on_root = true;
             break;
         }
-        if (t1 - t0) < 1e-5 {
+        if (b.t1 - b.t0) < 1e-5 {
             break;
         }
         if (ft >= 0.0) == (v0 >= 0.0) {
@@ -205,25 +205,11 @@ fn find_root(
         } else {
             seen1 = true;
         }
-        if (ft >= 0.0) == (f0 >= 0.0) {
-            t0 = t;
-            f0 = ft;
-            if side == -1 {
-                f1 *= 0.5;
-            }
-            side = -1;
-        } else {
-            t1 = t;
-            f1 = ft;
-            if side == 1 {
-                f0 *= 0.5;
-            }
-            side = 1;
-        }
-        if f0 == f1 {
+        b.narrow(t, ft);
+        if b.flat() {
             break;
         }
-        t = (t0 - f0 * (t1 - t0) / (f1 - f0)).clamp(t0, t1);
+        t = b.secant();
     }
     // Every evaluation had one end's sign: the search closed on the other end,
     // whose sample the field may contradict.

@@ -6,6 +6,7 @@
 use super::spatial::TriGrid;
 use crate::field::Field;
 use crate::grid::Grid;
+use crate::root::Bracket;
 use glam::{UVec3, Vec3};
 use rayon::prelude::*;
 
@@ -24,19 +25,18 @@ fn outside(v: f32) -> bool {
 }
 
 /// The crossing between `a` (value `fa`) and `b` (value `fb`, opposite side),
-/// refined by the Illinois method to `tol` (world units).
+/// refined by the Illinois method ([`crate::root`]) to `tol` (world units).
 pub(crate) fn crossing(field: &dyn Field, a: Vec3, fa: f32, b: Vec3, fb: f32, tol: f32) -> Vec3 {
-    let (mut t0, mut f0, mut t1, mut f1) = (0f32, fa, 1f32, fb);
+    let mut br = Bracket::new(fa, fb);
     let len = a.distance(b).max(f32::MIN_POSITIVE);
-    let mut side = 0i8;
     for _ in 0..60 {
-        if (t1 - t0) * len <= tol || f0 == f1 {
+        if (br.t1 - br.t0) * len <= tol || br.flat() {
             break;
         }
-        let t = (t0 - f0 * (t1 - t0) / (f1 - f0)).clamp(t0, t1);
+        let t = br.secant();
         // Bisect when false position stalls at an end.
-        let t = if t <= t0 || t >= t1 {
-            0.5 * (t0 + t1)
+        let t = if t <= br.t0 || t >= br.t1 {
+            0.5 * (br.t0 + br.t1)
         } else {
             t
         };
@@ -47,21 +47,9 @@ pub(crate) fn crossing(field: &dyn Field, a: Vec3, fa: f32, b: Vec3, fb: f32, to
         if !ft.is_finite() {
             break;
         }
-        if outside(ft) == outside(f0) {
-            (t0, f0) = (t, ft);
-            if side == -1 {
-                f1 *= 0.5;
-            }
-            side = -1;
-        } else {
-            (t1, f1) = (t, ft);
-            if side == 1 {
-                f0 *= 0.5;
-            }
-            side = 1;
-        }
+        br.narrow(t, ft);
     }
-    a.lerp(b, 0.5 * (t0 + t1))
+    a.lerp(b, 0.5 * (br.t0 + br.t1))
 }
 
 /// Distance from `p` (value `f0`) along unit `dir` to the first sign change or
