@@ -5,71 +5,93 @@
 //! [`ChunkKey`] (level 0 in a one-level world).
 
 use crate::horizon::layout::{HorizonKeep, NextLayout};
-use crate::mesh::ReadyMesh;
+use crate::tasks::work::ChunkWork;
 use crate::volume::{ChunkStatus, KdChunk};
 use bevy::prelude::*;
 use bevy::tasks::Task;
 use kdcontour::edit::{Brush, EditedField};
-use kdcontour::world::{BuiltChunk, ChunkBuild};
 use kdcontour::world::{ChunkKey, ChunkMap, ChunkSet, Layout};
 use kdcontour::{Field, World};
 use std::sync::Arc;
 
-/// A finished build.
-pub(crate) struct BuildOut {
-    pub(crate) generation: u64,
-    pub(crate) job: ChunkBuild,
-    pub(crate) result: Result<BuiltChunk, String>,
-    pub(crate) ms: f64,
-}
-
-/// A finished extraction.
-pub(crate) struct ExtractOut {
-    pub(crate) stamp: u64,
-    pub(crate) mesh: ReadyMesh,
-    pub(crate) ms: f64,
-}
-
-/// Everything the plugin tracks for one loaded chunk.
+/// Everything the plugin tracks for one loaded chunk. Its meshing work is the
+/// task subsystem's ([`ChunkWork`]); the rest changes through the methods here.
 pub(crate) struct ChunkSlot {
     /// The chunk's entity (a child of the volume).
-    pub entity: Entity,
-    /// Bumped by every build request; a build result from an older generation
-    /// is dropped.
-    pub build_gen: u64,
-    /// Bumped by every extraction request; an older extraction is dropped.
-    pub extract_stamp: u64,
-    /// A build is wanted.
-    pub need_build: bool,
-    /// An extraction (interior and owned seams) is wanted.
-    pub need_extract: bool,
-    /// The running build (dropping it cancels it).
-    pub building: Option<Task<BuildOut>>,
-    /// The running extraction (dropping it cancels it).
-    pub extracting: Option<Task<ExtractOut>>,
-    /// A finished extraction waiting for upload.
-    pub ready: Option<ReadyMesh>,
+    entity: Entity,
+    /// Builds and extractions wanted, running and finished.
+    pub(crate) work: ChunkWork,
     /// Its mesh waits for the rest of a level change, to be shown in the same
-    /// frame as the chunks it replaces are dropped (see [`crate::horizon`]).
-    pub held: bool,
+    /// frame as the chunks it replaces are dropped (see `horizon`).
+    held: bool,
     /// The chunk is near the camera or a collider anchor: its meshes carry a
     /// collider (feature `avian`).
-    pub collider: bool,
-    /// Whether [`crate::colliders`] found this frame that it should carry one
+    collider: bool,
+    /// Whether the collider subsystem found this frame that it should carry one
     /// (its scratch mark while it reconciles `collider`).
-    pub(crate) wants_collider: bool,
+    wants_collider: bool,
     /// It has shown a mesh (or its lack of surface) at least once.
-    pub shown: bool,
+    shown: bool,
 }
 
 impl ChunkSlot {
-    /// No work queued, running or waiting for upload.
-    fn is_settled(&self) -> bool {
-        !self.need_build
-            && !self.need_extract
-            && self.building.is_none()
-            && self.extracting.is_none()
-            && self.ready.is_none()
+    /// The chunk's entity.
+    pub(crate) fn entity(&self) -> Entity {
+        self.entity
+    }
+
+    /// Whether its mesh is held for a level change.
+    pub(crate) fn held(&self) -> bool {
+        self.held
+    }
+
+    /// Holds its next mesh for a level change (or not, for a first load), drops a
+    /// finished one and asks for a new extraction.
+    pub(crate) fn hold_for_change(&mut self, hold: bool) {
+        self.held = hold;
+        self.work.discard_ready();
+        self.work.request_extract();
+    }
+
+    /// Ends its hold; returns whether a mesh is ready to show.
+    pub(crate) fn release(&mut self) -> bool {
+        let was = std::mem::take(&mut self.held);
+        was && self.work.has_ready()
+    }
+
+    /// Whether it has shown a mesh (or its lack of surface).
+    pub(crate) fn shown(&self) -> bool {
+        self.shown
+    }
+
+    /// Its finished mesh, to show now (it counts as shown from then on).
+    pub(crate) fn take_mesh_to_show(&mut self) -> Option<crate::mesh::ReadyMesh> {
+        let ready = self.work.take_ready()?;
+        self.shown = true;
+        Some(ready)
+    }
+
+    /// Whether its meshes carry a collider.
+    pub(crate) fn collider(&self) -> bool {
+        self.collider
+    }
+
+    /// Whether the collider subsystem wants it to carry one this frame.
+    pub(crate) fn wants_collider(&self) -> bool {
+        self.wants_collider
+    }
+
+    /// Marks whether it should carry a collider (the collider subsystem's
+    /// scratch mark).
+    pub(crate) fn wish_collider(&mut self, wanted: bool) {
+        self.wants_collider = wanted;
+    }
+
+    /// Turns its collider on or off; its mesh is extracted again with or
+    /// without one.
+    pub(crate) fn flip_collider(&mut self) {
+        self.collider = !self.collider;
+        self.work.request_extract();
     }
 }
 
@@ -195,7 +217,7 @@ impl VolumeState {
     pub fn is_settled(&self) -> bool {
         self.transition.is_none()
             && self.pending_layout.is_none()
-            && self.slots.values().all(ChunkSlot::is_settled)
+            && self.slots.values().all(|s| s.work.is_settled())
     }
 
     /// Whether a level change (a horizon volume's new layout) is waiting for
@@ -234,8 +256,8 @@ impl VolumeState {
     pub fn work_counts(&self) -> WorkCounts {
         let mut w = WorkCounts::default();
         for s in self.slots.values() {
-            w.running += s.building.is_some() as usize + s.extracting.is_some() as usize;
-            w.queued += s.need_build as usize + s.need_extract as usize;
+            w.running += s.work.running();
+            w.queued += s.work.queued();
         }
         w
     }
@@ -250,8 +272,7 @@ impl VolumeState {
     pub(crate) fn mark_extract(&mut self, c: &ChunkKey) {
         for o in self.world.seam_owners_touching(c) {
             if let Some(slot) = self.slots.get_mut(&o) {
-                slot.extract_stamp += 1;
-                slot.need_extract = true;
+                slot.work.request_extract();
             }
         }
     }
@@ -277,8 +298,7 @@ impl VolumeState {
     /// Queues a new build of chunk `c`.
     pub(crate) fn mark_build(&mut self, c: &ChunkKey) {
         if let Some(slot) = self.slots.get_mut(c) {
-            slot.build_gen += 1;
-            slot.need_build = true;
+            slot.work.request_build();
         }
     }
 
@@ -330,13 +350,7 @@ impl VolumeState {
             c,
             ChunkSlot {
                 entity,
-                build_gen: 0,
-                extract_stamp: 0,
-                need_build: false,
-                need_extract: false,
-                building: None,
-                extracting: None,
-                ready: None,
+                work: ChunkWork::default(),
                 held: false,
                 shown: false,
                 collider: false,
@@ -359,8 +373,7 @@ impl VolumeState {
         }
         for o in owners.into_iter().filter(|&o| o != k) {
             if let Some(slot) = self.slots.get_mut(&o) {
-                slot.extract_stamp += 1;
-                slot.need_extract = true;
+                slot.work.request_extract();
             }
         }
     }

@@ -56,7 +56,7 @@ pub(crate) fn apply_meshes(
         let mut keys: Vec<ChunkKey> = state
             .slots
             .iter()
-            .filter(|(_, s)| s.ready.is_some() && !s.held)
+            .filter(|(_, s)| s.work.has_ready() && !s.held())
             .map(|(c, _)| *c)
             .collect();
         state.nearest_first(&mut keys);
@@ -89,11 +89,10 @@ impl Upload<'_, '_, '_, '_, '_, '_> {
         let Some(slot) = state.slots.get_mut(&k) else {
             return;
         };
-        let Some(ready) = slot.ready.take() else {
+        let Some(ready) = slot.take_mesh_to_show() else {
             return;
         };
-        slot.shown = true;
-        let chunk = slot.entity;
+        let chunk = slot.entity();
         let Ok((mut info, existing)) = self.chunks.get_mut(chunk) else {
             return;
         };

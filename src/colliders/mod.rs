@@ -144,7 +144,7 @@ fn want_colliders(
         // Marks on the slots rather than a set of keys: the near chunks' seam
         // owners are looked up once each, and nothing is hashed twice.
         for slot in state.slots.values_mut() {
-            slot.wants_collider = false;
+            slot.wish_collider(false);
         }
         if settings.enabled {
             let near: Vec<ChunkKey> = state
@@ -162,7 +162,7 @@ fn want_colliders(
             for k in near {
                 for o in state.world.seam_owners_touching(&k) {
                     if let Some(slot) = state.slots.get_mut(&o) {
-                        slot.wants_collider = true;
+                        slot.wish_collider(true);
                     }
                 }
             }
@@ -170,7 +170,7 @@ fn want_colliders(
         let mut changed: Vec<ChunkKey> = state
             .slots
             .iter()
-            .filter(|(_, s)| s.collider != s.wants_collider)
+            .filter(|(_, s)| s.collider() != s.wants_collider())
             .map(|(k, _)| *k)
             .collect();
         changed.sort_by_key(|k| k.order());
@@ -180,9 +180,7 @@ fn want_colliders(
                 continue;
             }
             let slot = state.slots.get_mut(&k).expect("listed");
-            slot.collider = !slot.collider;
-            slot.extract_stamp += 1;
-            slot.need_extract = true;
+            slot.flip_collider();
         }
     }
 }

@@ -167,7 +167,7 @@ impl VolumeState {
             partners,
         } = next;
         let layout = prepared.layout();
-        let first = !self.slots.values().any(|s| s.shown);
+        let first = !self.slots.values().any(|s| s.shown());
         let dropped: Vec<ChunkKey> = self
             .slots
             .keys()
@@ -195,10 +195,10 @@ impl VolumeState {
         let mut garbage = Vec::with_capacity(dropped.len());
         for k in &dropped {
             let slot = self.slots.remove(k).expect("listed");
-            if slot.shown && !first {
-                retired.push((*k, slot.entity));
+            if slot.shown() && !first {
+                retired.push((*k, slot.entity()));
             } else {
-                commands.entity(slot.entity).despawn();
+                commands.entity(slot.entity()).despawn();
             }
             garbage.push(slot);
         }
@@ -238,10 +238,7 @@ impl VolumeState {
         ));
         for k in &touched {
             let slot = self.slots.get_mut(k).expect("kept");
-            slot.held = !first;
-            slot.ready = None;
-            slot.extract_stamp += 1;
-            slot.need_extract = true;
+            slot.hold_for_change(!first);
         }
         self.transition = Some(Transition {
             waiting: touched,
@@ -260,14 +257,11 @@ impl VolumeState {
         };
         t.waiting.iter().all(|k| {
             self.slots.get(k).is_none_or(|s| {
-                !s.need_build
-                    && s.building.is_none()
-                    && !s.need_extract
-                    && s.extracting.is_none()
+                s.work.idle()
                     && if t.hold {
-                        s.ready.is_some()
+                        s.work.has_ready()
                     } else {
-                        s.shown && s.ready.is_none()
+                        s.shown() && !s.work.has_ready()
                     }
             })
         })
@@ -286,11 +280,8 @@ impl VolumeState {
         let mut show = Vec::new();
         for k in t.waiting {
             if let Some(slot) = self.slots.get_mut(&k) {
-                if slot.held {
-                    slot.held = false;
-                    if slot.ready.is_some() {
-                        show.push(k);
-                    }
+                if slot.release() {
+                    show.push(k);
                 }
             }
         }

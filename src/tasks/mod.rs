@@ -9,7 +9,7 @@
 use crate::mesh::ReadyMesh;
 use crate::messages::ChunkFailed;
 use crate::settings::KdContourSettings;
-use crate::state::{BuildOut, ExtractOut, VolumeState};
+use crate::state::VolumeState;
 use crate::stats::{KdContourStats, MainThreadClock};
 use crate::volume::{ChunkStatus, KdChunk};
 use crate::workers::ChunkWorkers;
@@ -18,6 +18,9 @@ use bevy::prelude::*;
 use bevy::tasks::futures::check_ready;
 use kdcontour::world::ChunkKey;
 use kdcontour::IndexedMesh;
+use work::{BuildOut, ExtractOut};
+
+pub(crate) mod work;
 
 /// Starts and collects meshing tasks.
 pub struct TasksPlugin;
@@ -56,8 +59,10 @@ impl VolumeState {
             .filter(|(_, s)| match work {
                 // Not while a build of the chunk is queued or running: its tree
                 // is about to change.
-                Work::Extract => s.need_extract && s.building.is_none() && !s.need_build,
-                Work::Build => s.need_build && s.building.is_none(),
+                Work::Extract => {
+                    s.work.need_extract && s.work.building.is_none() && !s.work.need_build
+                }
+                Work::Build => s.work.need_build && s.work.building.is_none(),
             })
             .map(|(c, _)| *c)
             // An extraction reads the trees of its seams' chunks: one whose
@@ -72,13 +77,8 @@ impl VolumeState {
     /// Whether a chunk of a seam `c` owns waits for a build.
     fn partner_pending(&self, c: &ChunkKey) -> bool {
         self.seam_partners.get(c).is_some_and(|ps| {
-            ps.iter().any(|p| {
-                p != c
-                    && self
-                        .slots
-                        .get(p)
-                        .is_some_and(|s| s.need_build || s.building.is_some())
-            })
+            ps.iter()
+                .any(|p| p != c && self.slots.get(p).is_some_and(|s| s.work.build_pending()))
         })
     }
 
@@ -95,22 +95,22 @@ impl VolumeState {
                 // one material (angular patches on distant hills).
                 let cell = self.world().cell_size;
                 let slot = self.slots.get_mut(&c).expect("listed");
-                slot.need_extract = false;
+                slot.work.need_extract = false;
                 let Some(snapshot) = snapshot else {
                     // No tree (no surface yet, or its build failed): show nothing.
-                    slot.extracting = None;
-                    slot.ready = Some(ReadyMesh::new(threshold, &IndexedMesh::default()));
+                    slot.work.extracting = None;
+                    slot.work.ready = Some(ReadyMesh::new(threshold, &IndexedMesh::default()));
                     return false;
                 };
-                let stamp = slot.extract_stamp;
+                let stamp = slot.work.extract_stamp;
                 #[cfg(feature = "avian")]
                 let layers = self
                     .colliders
-                    .filter(|_| slot.collider)
+                    .filter(|_| slot.collider())
                     .map(|(_, layers)| layers);
                 // A newer extraction replaces a running one: dropping its task
                 // cancels it (its stamp would be stale anyway).
-                slot.extracting = Some(workers.run(move || {
+                slot.work.extracting = Some(workers.run(move || {
                     let t = std::time::Instant::now();
                     let mut mesh = IndexedMesh::default();
                     // Vertex materials come from the tree, when the volume's
@@ -139,9 +139,9 @@ impl VolumeState {
                 let job = self.world().chunk_build(&c);
                 let field = self.field().clone();
                 let slot = self.slots.get_mut(&c).expect("listed");
-                slot.need_build = false;
-                let generation = slot.build_gen;
-                slot.building = Some(workers.run(move || {
+                slot.work.need_build = false;
+                let generation = slot.work.build_gen;
+                slot.work.building = Some(workers.run(move || {
                     let t = std::time::Instant::now();
                     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                         job.build(&field)
@@ -236,11 +236,11 @@ fn poll_tasks(
         // of the old tree that lands in the same frame is dropped below.
         let mut built = Vec::new();
         for (&c, slot) in state.slots.iter_mut() {
-            if let Some(out) = slot.building.as_mut().and_then(check_ready) {
-                slot.building = None;
+            if let Some(out) = slot.work.building.as_mut().and_then(check_ready) {
+                slot.work.building = None;
                 stats.record_build(out.ms);
                 // An edit that came after this build started queued a newer one.
-                if out.generation == slot.build_gen {
+                if out.generation == slot.work.build_gen {
                     built.push((c, out.job, out.result));
                 }
             }
@@ -271,11 +271,11 @@ fn poll_tasks(
             state.mark_extract(&c);
         }
         for slot in state.slots.values_mut() {
-            if let Some(out) = slot.extracting.as_mut().and_then(check_ready) {
-                slot.extracting = None;
+            if let Some(out) = slot.work.extracting.as_mut().and_then(check_ready) {
+                slot.work.extracting = None;
                 stats.record_extraction(out.ms);
-                if out.stamp == slot.extract_stamp {
-                    slot.ready = Some(out.mesh);
+                if out.stamp == slot.work.extract_stamp {
+                    slot.work.ready = Some(out.mesh);
                 }
             }
         }
