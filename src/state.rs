@@ -4,13 +4,12 @@
 //! and unloading a chunk is one insert and one remove. Chunks are addressed by
 //! [`ChunkKey`] (level 0 in a one-level world).
 
-use crate::horizon::layout::{HorizonKeep, NextLayout};
+use crate::horizon::layout::{HorizonKeep, HorizonState};
 use crate::tasks::work::ChunkWork;
 use crate::volume::{ChunkStatus, KdChunk};
 use bevy::prelude::*;
-use bevy::tasks::Task;
 use kdcontour::edit::{Brush, EditedField};
-use kdcontour::world::{ChunkKey, ChunkMap, ChunkSet, Layout};
+use kdcontour::world::{ChunkKey, ChunkMap, Layout};
 use kdcontour::{Field, World};
 use std::sync::Arc;
 
@@ -104,22 +103,6 @@ pub struct WorkCounts {
     pub queued: usize,
 }
 
-/// A level change in progress (see [`crate::horizon`]).
-pub(crate) struct Transition {
-    /// The chunks whose new meshes it waits for.
-    pub waiting: Vec<ChunkKey>,
-    /// Their meshes are held back and shown together (false for a first load,
-    /// which replaces nothing).
-    pub hold: bool,
-    /// Which chunks of the new layout are built and shown.
-    pub keep: HorizonKeep,
-    /// The chunks whose re-extraction would re-extract a held chunk (those
-    /// that meet a seam a held chunk owns): their thresholds wait.
-    pub blocked: ChunkSet,
-    /// The dropped chunks, still shown until the change is complete.
-    pub retired: Vec<(ChunkKey, Entity)>,
-}
-
 /// The meshing state of one volume (added by the plugin).
 #[derive(Component)]
 pub struct VolumeState {
@@ -133,18 +116,8 @@ pub struct VolumeState {
     pub(crate) focus: Vec3,
     /// The camera chunk and settings streaming last ran for.
     pub(crate) stream_key: Option<(IVec3, u64, i32, i32)>,
-    /// The level change in progress, if any.
-    pub(crate) transition: Option<Transition>,
-    /// A horizon volume's next layout, being prepared on a task thread.
-    pub(crate) pending_layout: Option<Task<kdcontour::Result<NextLayout>>>,
-    /// A horizon volume's kept chunks and the chunks whose owned seams touch
-    /// each (from its last layout).
-    pub(crate) seam_owners: ChunkMap<Vec<ChunkKey>>,
-    /// Horizon volumes: for each kept chunk, the chunks of the seams it owns
-    /// (its extraction reads their trees), from the layout task.
-    pub(crate) seam_partners: ChunkMap<Vec<ChunkKey>>,
-    /// A horizon volume's layout whose chunks are shown, and which of them.
-    pub(crate) horizon_shown: Option<(Layout, HorizonKeep)>,
+    /// A horizon volume's level changes and layouts (the horizon subsystem's).
+    pub(crate) horizon: HorizonState,
     /// Chunks with a collider: their threshold cap and the colliders' layers
     /// (`None` with colliders off).
     #[cfg(feature = "avian")]
@@ -161,11 +134,7 @@ impl VolumeState {
             slots: ChunkMap::default(),
             focus: Vec3::ZERO,
             stream_key: None,
-            transition: None,
-            pending_layout: None,
-            seam_owners: ChunkMap::default(),
-            seam_partners: ChunkMap::default(),
-            horizon_shown: None,
+            horizon: HorizonState::default(),
             #[cfg(feature = "avian")]
             colliders: None,
         }
@@ -215,15 +184,13 @@ impl VolumeState {
     /// No work queued, running or waiting for upload, and no level change in
     /// progress.
     pub fn is_settled(&self) -> bool {
-        self.transition.is_none()
-            && self.pending_layout.is_none()
-            && self.slots.values().all(|s| s.work.is_settled())
+        self.horizon.is_settled() && self.slots.values().all(|s| s.work.is_settled())
     }
 
     /// Whether a level change (a horizon volume's new layout) is waiting for
     /// its meshes; the chunks it replaces are shown until it ends.
     pub fn level_change_in_progress(&self) -> bool {
-        self.transition.is_some()
+        self.horizon.level_change_in_progress()
     }
 
     /// A horizon volume's layout whose chunks are shown now (while a level
@@ -231,7 +198,7 @@ impl VolumeState {
     /// `None` until the first layout has loaded. The shown chunks are exactly
     /// the layout's kept chunks.
     pub fn horizon_shown(&self) -> Option<(&Layout, &HorizonKeep)> {
-        self.horizon_shown.as_ref().map(|(l, k)| (l, k))
+        self.horizon.shown()
     }
 
     /// The chunks that show something now, with their entities: every loaded
@@ -245,9 +212,7 @@ impl VolumeState {
             .filter(|(_, s)| s.shown)
             .map(|(k, s)| (*k, s.entity))
             .collect();
-        if let Some(t) = &self.transition {
-            v.extend(t.retired.iter().copied());
-        }
+        v.extend(self.horizon.retired().iter().copied());
         v.sort_by_key(|(k, _)| k.order());
         v
     }
@@ -290,9 +255,7 @@ impl VolumeState {
 
     /// Whether a chunk whose mesh shows part of `c` is held for a level change.
     pub(crate) fn shows_held(&self, c: &ChunkKey) -> bool {
-        self.transition
-            .as_ref()
-            .is_some_and(|t| t.blocked.contains(c))
+        self.horizon.blocks(c)
     }
 
     /// Queues a new build of chunk `c`.

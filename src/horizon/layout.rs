@@ -4,7 +4,8 @@
 //! ([`NextLayout`]).
 
 use bevy::prelude::*;
-use kdcontour::world::{ChunkKey, ChunkMap, Layout, PreparedLayout};
+use bevy::tasks::Task;
+use kdcontour::world::{ChunkKey, ChunkMap, ChunkSet, Layout, PreparedLayout};
 
 /// Level-0 chunk rows `min_y..=max_y`.
 pub(crate) type Rows = (i32, i32);
@@ -106,5 +107,78 @@ impl NextLayout {
             owners,
             partners,
         })
+    }
+}
+
+/// A level change in progress (see `horizon`).
+pub(crate) struct Transition {
+    /// The chunks whose new meshes it waits for.
+    pub(crate) waiting: Vec<ChunkKey>,
+    /// Their meshes are held back and shown together (false for a first load,
+    /// which replaces nothing).
+    pub(crate) hold: bool,
+    /// Which chunks of the new layout are built and shown.
+    pub(crate) keep: HorizonKeep,
+    /// The chunks whose re-extraction would re-extract a held chunk (those
+    /// that meet a seam a held chunk owns): their thresholds wait.
+    pub(crate) blocked: ChunkSet,
+    /// The dropped chunks, still shown until the change is complete.
+    pub(crate) retired: Vec<(ChunkKey, Entity)>,
+}
+
+/// A horizon volume's level changes and layouts: written by the horizon
+/// subsystem only; the others read it through its methods.
+#[derive(Default)]
+pub(crate) struct HorizonState {
+    /// The level change in progress, if any.
+    pub(super) transition: Option<Transition>,
+    /// The next layout, being prepared on a task thread.
+    pub(super) pending_layout: Option<Task<kdcontour::Result<NextLayout>>>,
+    /// The kept chunks and the chunks whose owned seams touch each (from the
+    /// last layout).
+    pub(super) seam_owners: ChunkMap<Vec<ChunkKey>>,
+    /// For each kept chunk, the chunks of the seams it owns (its extraction
+    /// reads their trees), from the layout task.
+    pub(super) seam_partners: ChunkMap<Vec<ChunkKey>>,
+    /// The layout whose chunks are shown, and which of them.
+    pub(super) shown: Option<(Layout, HorizonKeep)>,
+}
+
+impl HorizonState {
+    /// No level change running or layout being prepared.
+    pub(crate) fn is_settled(&self) -> bool {
+        self.transition.is_none() && self.pending_layout.is_none()
+    }
+
+    /// Whether a level change waits for its meshes.
+    pub(crate) fn level_change_in_progress(&self) -> bool {
+        self.transition.is_some()
+    }
+
+    /// Whether a level change holds its meshes back to show them together.
+    pub(crate) fn holds(&self) -> bool {
+        self.transition.as_ref().is_some_and(|t| t.hold)
+    }
+
+    /// Whether a chunk whose mesh shows part of `c` is held for a level change.
+    pub(crate) fn blocks(&self, c: &ChunkKey) -> bool {
+        self.transition
+            .as_ref()
+            .is_some_and(|t| t.blocked.contains(c))
+    }
+
+    /// The chunks a level change replaces, still shown until it ends.
+    pub(crate) fn retired(&self) -> &[(ChunkKey, Entity)] {
+        self.transition.as_ref().map_or(&[], |t| &t.retired)
+    }
+
+    /// The chunks of the seams kept chunk `c` owns, when known.
+    pub(crate) fn seam_partners(&self, c: &ChunkKey) -> Option<&Vec<ChunkKey>> {
+        self.seam_partners.get(c)
+    }
+
+    /// The layout whose chunks are shown, and which of them.
+    pub(crate) fn shown(&self) -> Option<(&Layout, &HorizonKeep)> {
+        self.shown.as_ref().map(|(l, k)| (l, k))
     }
 }

@@ -41,7 +41,7 @@ pub(crate) mod layout;
 pub use layout::{horizon_layout, HorizonKeep};
 use layout::{top_level, NextLayout, Rows};
 
-use crate::state::{Transition, VolumeState};
+use crate::state::VolumeState;
 use crate::volume::KdVolume;
 use crate::workers::drop_elsewhere;
 use bevy::prelude::*;
@@ -49,6 +49,7 @@ use bevy::tasks::{futures::check_ready, AsyncComputeTaskPool};
 use kdcontour::world::layout::MAX_LEVEL;
 use kdcontour::world::{ChunkKey, ChunkSet, Layout};
 use kdcontour::{Settings, World};
+use layout::Transition;
 
 /// The level world of a new horizon volume (its layout comes from the camera
 /// when streaming first runs). Checks the extent's settings.
@@ -110,14 +111,14 @@ pub(crate) fn stream(
     rows: Rows,
     threshold: f32,
 ) {
-    if state.transition.is_some() {
+    if state.horizon.transition.is_some() {
         return;
     }
-    if let Some(task) = state.pending_layout.as_mut() {
+    if let Some(task) = state.horizon.pending_layout.as_mut() {
         let Some(result) = check_ready(task) else {
             return;
         };
-        state.pending_layout = None;
+        state.horizon.pending_layout = None;
         let started = result.and_then(|next| state.relayout(commands, volume, next, threshold));
         if let Err(e) = started {
             error!("KdVolume {volume}: {e}");
@@ -144,7 +145,7 @@ pub(crate) fn stream(
     };
     // Laying out and finding every chunk's neighbourhood and seams costs
     // milliseconds at a long view: off the main thread.
-    state.pending_layout = Some(
+    state.horizon.pending_layout = Some(
         AsyncComputeTaskPool::get()
             .spawn(async move { NextLayout::new(horizon_layout(res, cam, cells, rows)?, keep) }),
     );
@@ -177,7 +178,7 @@ impl VolumeState {
         // The kept chunks that own seams with dropped ones (in the old layout).
         let mut touched: Vec<ChunkKey> = Vec::new();
         for k in &dropped {
-            match self.seam_owners.get(k) {
+            match self.horizon.seam_owners.get(k) {
                 Some(o) => touched.extend(o),
                 None => touched.extend(self.world().seam_owners_touching(k)),
             }
@@ -233,14 +234,14 @@ impl VolumeState {
         }
         drop_elsewhere((
             garbage,
-            std::mem::replace(&mut self.seam_owners, owners),
-            std::mem::replace(&mut self.seam_partners, partners),
+            std::mem::replace(&mut self.horizon.seam_owners, owners),
+            std::mem::replace(&mut self.horizon.seam_partners, partners),
         ));
         for k in &touched {
             let slot = self.slots.get_mut(k).expect("kept");
             slot.hold_for_change(!first);
         }
-        self.transition = Some(Transition {
+        self.horizon.transition = Some(Transition {
             waiting: touched,
             hold: !first,
             keep,
@@ -252,7 +253,7 @@ impl VolumeState {
 
     /// Whether the level change in progress has every mesh it waits for.
     pub(crate) fn transition_ready(&self) -> bool {
-        let Some(t) = &self.transition else {
+        let Some(t) = &self.horizon.transition else {
             return false;
         };
         t.waiting.iter().all(|k| {
@@ -270,10 +271,10 @@ impl VolumeState {
     /// Ends the level change: despawns the chunks it replaced and returns the
     /// chunks whose held meshes must be shown in this same frame.
     pub(crate) fn finish_transition(&mut self, commands: &mut Commands) -> Vec<ChunkKey> {
-        let Some(t) = self.transition.take() else {
+        let Some(t) = self.horizon.transition.take() else {
             return Vec::new();
         };
-        self.horizon_shown = Some((self.world().layout().clone(), t.keep));
+        self.horizon.shown = Some((self.world().layout().clone(), t.keep));
         for (_, e) in t.retired {
             commands.entity(e).despawn();
         }

@@ -76,7 +76,7 @@ impl VolumeState {
 
     /// Whether a chunk of a seam `c` owns waits for a build.
     fn partner_pending(&self, c: &ChunkKey) -> bool {
-        self.seam_partners.get(c).is_some_and(|ps| {
+        self.horizon.seam_partners(c).is_some_and(|ps| {
             ps.iter()
                 .any(|p| p != c && self.slots.get(p).is_some_and(|s| s.work.build_pending()))
         })
@@ -192,7 +192,7 @@ fn schedule_tasks(
         // has landed, and a build re-queues its neighbours' extractions: build
         // first, so no extraction is done twice. (A first load shows chunks as
         // they land, so it extracts first, as a one-level volume does.)
-        let order = if state.transition.as_ref().is_some_and(|t| t.hold) {
+        let order = if state.horizon.holds() {
             [Work::Build, Work::Extract]
         } else {
             [Work::Extract, Work::Build]
