@@ -1,10 +1,35 @@
-//! Chunk meshes as Bevy shows them: a core mesh converted ([`to_bevy_mesh`]), and
-//! a chunk's finished extraction waiting for upload ([`ReadyMesh`]).
+//! Chunk meshes as Bevy shows them: a core mesh converted ([`to_bevy_mesh`]), a
+//! chunk's finished extraction waiting for upload ([`ReadyMesh`]), and what a
+//! subsystem adds to it ([`MeshExtra`]: the colliders).
 
 use bevy::asset::RenderAssetUsages;
+use bevy::ecs::system::EntityCommands;
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
 use kdcontour::IndexedMesh;
+use std::sync::Arc;
+
+/// What a subsystem adds to a chunk's mesh (the colliders): built from the
+/// welded mesh in the chunk's extraction task, put on the chunk entity in the
+/// frame its mesh is shown, so the two never disagree.
+pub(crate) trait MeshExtra: Send + Sync + 'static {
+    /// Builds it from `mesh`, or, with `None`, what takes an old one away (the
+    /// chunk should have none now).
+    fn build(&self, mesh: Option<&IndexedMesh>) -> ExtraPayload;
+}
+
+/// A built extra: puts itself on the chunk entity.
+pub(crate) type ExtraPayload = Box<dyn FnOnce(&mut EntityCommands) + Send + Sync>;
+
+/// A volume's mesh extra and the threshold its chunks are capped at.
+#[derive(Clone)]
+pub(crate) struct ChunkExtra {
+    /// What builds it.
+    pub builder: Arc<dyn MeshExtra>,
+    /// `Some(threshold)` while it is on: the chunks that carry it are cut no
+    /// coarser; `None` while it is off (every chunk's old one is taken away).
+    pub on: Option<f32>,
+}
 
 /// A chunk mesh ready to show: made into a Bevy mesh on the task thread, so
 /// showing it on the main thread is a move, however many show in one frame.
@@ -15,9 +40,8 @@ pub(crate) struct ReadyMesh {
     pub triangles: usize,
     /// The Bevy mesh; `None` when the chunk has no surface.
     pub mesh: Option<Mesh>,
-    /// The collider of the same triangles, when the chunk wants one.
-    #[cfg(feature = "avian")]
-    pub collider: Option<crate::colliders::trimesh::ChunkCollider>,
+    /// What a subsystem adds to it (a collider of the same triangles), if any.
+    pub extra: Option<ExtraPayload>,
 }
 
 impl ReadyMesh {
@@ -27,8 +51,7 @@ impl ReadyMesh {
             threshold,
             triangles: mesh.triangle_count(),
             mesh: (!mesh.is_empty()).then(|| to_bevy_mesh(mesh)),
-            #[cfg(feature = "avian")]
-            collider: None,
+            extra: None,
         }
     }
 }

@@ -5,6 +5,7 @@
 //! [`ChunkKey`] (level 0 in a one-level world).
 
 use crate::horizon::layout::{HorizonKeep, HorizonState};
+use crate::mesh::{ChunkExtra, MeshExtra};
 use crate::tasks::work::ChunkWork;
 use crate::volume::{ChunkStatus, KdChunk};
 use bevy::prelude::*;
@@ -118,10 +119,9 @@ pub struct VolumeState {
     pub(crate) stream_key: Option<(IVec3, u64, i32, i32)>,
     /// A horizon volume's level changes and layouts (the horizon subsystem's).
     pub(crate) horizon: HorizonState,
-    /// Chunks with a collider: their threshold cap and the colliders' layers
-    /// (`None` with colliders off).
-    #[cfg(feature = "avian")]
-    pub(crate) colliders: Option<(f32, avian3d::prelude::CollisionLayers)>,
+    /// What chunks that carry a collider add to their meshes (set by the
+    /// collider subsystem; `None` without it).
+    extra: Option<ChunkExtra>,
 }
 
 impl VolumeState {
@@ -135,8 +135,7 @@ impl VolumeState {
             focus: Vec3::ZERO,
             stream_key: None,
             horizon: HorizonState::default(),
-            #[cfg(feature = "avian")]
-            colliders: None,
+            extra: None,
         }
     }
 
@@ -245,12 +244,22 @@ impl VolumeState {
     /// The threshold a chunk (its slot) may not be cut coarser than because it carries a
     /// collider (feature `avian`), if any.
     pub(crate) fn collider_cap(&self, slot: &ChunkSlot) -> Option<f32> {
-        #[cfg(feature = "avian")]
         if slot.collider {
-            return self.colliders.map(|(threshold, _)| threshold);
+            return self.extra.as_ref().and_then(|e| e.on);
         }
-        let _ = slot;
         None
+    }
+
+    /// Sets what chunks that carry a collider add to their meshes.
+    pub(crate) fn set_extra(&mut self, extra: Option<ChunkExtra>) {
+        self.extra = extra;
+    }
+
+    /// For a new extraction of `slot`: the extra's builder and whether the
+    /// chunk carries it now (`None` when there is no extra).
+    pub(crate) fn extra_for(&self, slot: &ChunkSlot) -> Option<(Arc<dyn MeshExtra>, bool)> {
+        let e = self.extra.as_ref()?;
+        Some((e.builder.clone(), e.on.is_some() && slot.collider))
     }
 
     /// Whether a chunk whose mesh shows part of `c` is held for a level change.

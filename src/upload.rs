@@ -99,8 +99,9 @@ impl Upload<'_, '_, '_, '_, '_, '_> {
         let failed = matches!(info.status, ChunkStatus::Failed(_));
         info.threshold = ready.threshold;
         info.triangles = ready.triangles;
-        #[cfg(feature = "avian")]
-        crate::colliders::attach(self.commands, chunk, ready.collider);
+        if let Some(put) = ready.extra {
+            put(&mut self.commands.entity(chunk));
+        }
         match ready.mesh {
             None => {
                 self.commands.entity(chunk).remove::<(

@@ -17,17 +17,19 @@
 //!
 //! Add avian's `PhysicsPlugins` yourself (the plugin does not step physics).
 
+use crate::mesh::{ChunkExtra, ExtraPayload, MeshExtra};
 use crate::state::VolumeState;
 use crate::stats::MainThreadClock;
 use crate::volume::{to_volume, KdChunk, LodCamera};
 use crate::{KdContourStep, KdContourSystems};
 use avian3d::prelude::{Collider, CollisionLayers, RigidBody};
+use bevy::ecs::system::EntityCommands;
 use bevy::prelude::*;
 use kdcontour::world::ChunkKey;
+use kdcontour::IndexedMesh;
+use std::sync::Arc;
 
 pub(crate) mod trimesh;
-
-use trimesh::ChunkCollider;
 
 /// Chunk colliders near the camera and anchors.
 pub struct CollidersPlugin;
@@ -82,18 +84,21 @@ impl Default for ColliderSettings {
 #[reflect(Component)]
 pub struct ColliderAnchor;
 
-/// Puts a chunk's new collider on its entity, or takes the old one away.
-pub(crate) fn attach(commands: &mut Commands, chunk: Entity, collider: Option<ChunkCollider>) {
-    match collider {
-        Some((collider, layers)) => {
-            commands
-                .entity(chunk)
-                .insert((RigidBody::Static, collider, layers));
-        }
-        None => {
-            commands
-                .entity(chunk)
-                .try_remove::<(Collider, RigidBody, CollisionLayers)>();
+/// The collider subsystem's mesh extra: a chunk's trimesh collider, built in
+/// its extraction task, or the removal of an old one.
+struct ColliderExtra {
+    layers: CollisionLayers,
+}
+
+impl MeshExtra for ColliderExtra {
+    fn build(&self, mesh: Option<&IndexedMesh>) -> ExtraPayload {
+        match mesh.and_then(|m| trimesh::build(m, self.layers)) {
+            Some((collider, layers)) => Box::new(move |chunk: &mut EntityCommands| {
+                chunk.insert((RigidBody::Static, collider, layers));
+            }),
+            None => Box::new(|chunk: &mut EntityCommands| {
+                chunk.try_remove::<(Collider, RigidBody, CollisionLayers)>();
+            }),
         }
     }
 }
@@ -136,9 +141,12 @@ fn want_colliders(
     let _time = clock.measure();
     for (vol_tf, mut state) in &mut volumes {
         let state = &mut *state;
-        state.colliders = settings
-            .enabled
-            .then_some((settings.threshold, settings.layers));
+        state.set_extra(Some(ChunkExtra {
+            builder: Arc::new(ColliderExtra {
+                layers: settings.layers,
+            }),
+            on: settings.enabled.then_some(settings.threshold),
+        }));
         let to_local = to_volume(vol_tf);
         let points: Vec<Vec3> = anchors.iter().map(|a| to_local(a.translation())).collect();
         // Marks on the slots rather than a set of keys: the near chunks' seam

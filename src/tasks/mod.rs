@@ -94,6 +94,7 @@ impl VolumeState {
                 // everywhere, and splitting there would draw whole faces in
                 // one material (angular patches on distant hills).
                 let cell = self.world().cell_size;
+                let extra = self.extra_for(&self.slots[&c]);
                 let slot = self.slots.get_mut(&c).expect("listed");
                 slot.work.need_extract = false;
                 let Some(snapshot) = snapshot else {
@@ -103,11 +104,6 @@ impl VolumeState {
                     return false;
                 };
                 let stamp = slot.work.extract_stamp;
-                #[cfg(feature = "avian")]
-                let layers = self
-                    .colliders
-                    .filter(|_| slot.collider())
-                    .map(|(_, layers)| layers);
                 // A newer extraction replaces a running one: dropping its task
                 // cancels it (its stamp would be stale anyway).
                 slot.work.extracting = Some(workers.run(move || {
@@ -116,18 +112,13 @@ impl VolumeState {
                     // Vertex materials come from the tree, when the volume's
                     // world carries them (a terrain material).
                     snapshot.extract(&mut mesh);
-                    // The collider takes the welded mesh; the drawn one has its
-                    // vertices split along hard material borders, so a border
-                    // is drawn along the crease, not as a sawtooth across it.
-                    #[cfg(feature = "avian")]
-                    let collider = layers.and_then(|l| crate::colliders::trimesh::build(&mesh, l));
+                    // The extra (a collider) takes the welded mesh; the drawn one
+                    // has its vertices split along hard material borders, so a
+                    // border is drawn along the crease, not as a sawtooth across it.
+                    let extra = extra.map(|(b, wanted)| b.build(wanted.then_some(&mesh)));
                     kdcontour::material::split_borders(&mut mesh, &field, cell);
-                    #[allow(unused_mut)]
                     let mut ready = ReadyMesh::new(threshold, &mesh);
-                    #[cfg(feature = "avian")]
-                    {
-                        ready.collider = collider;
-                    }
+                    ready.extra = extra;
                     ExtractOut {
                         stamp,
                         mesh: ready,
