@@ -29,6 +29,7 @@ pub(crate) struct ChunkSlot {
     collider: bool,
     /// Whether the collider subsystem found this frame that it should carry one
     /// (its scratch mark while it reconciles `collider`).
+    #[cfg_attr(not(feature = "avian"), allow(dead_code))] // set by the collider subsystem only
     wants_collider: bool,
     /// It has shown a mesh (or its lack of surface) at least once.
     shown: bool,
@@ -72,23 +73,27 @@ impl ChunkSlot {
     }
 
     /// Whether its meshes carry a collider.
+    #[cfg_attr(not(feature = "avian"), allow(dead_code))] // set by the collider subsystem only
     pub(crate) fn collider(&self) -> bool {
         self.collider
     }
 
     /// Whether the collider subsystem wants it to carry one this frame.
+    #[cfg_attr(not(feature = "avian"), allow(dead_code))] // set by the collider subsystem only
     pub(crate) fn wants_collider(&self) -> bool {
         self.wants_collider
     }
 
     /// Marks whether it should carry a collider (the collider subsystem's
     /// scratch mark).
+    #[cfg_attr(not(feature = "avian"), allow(dead_code))] // set by the collider subsystem only
     pub(crate) fn wish_collider(&mut self, wanted: bool) {
         self.wants_collider = wanted;
     }
 
     /// Turns its collider on or off; its mesh is extracted again with or
     /// without one.
+    #[cfg_attr(not(feature = "avian"), allow(dead_code))] // set by the collider subsystem only
     pub(crate) fn flip_collider(&mut self) {
         self.collider = !self.collider;
         self.work.request_extract();
@@ -251,6 +256,7 @@ impl VolumeState {
     }
 
     /// Sets what chunks that carry a collider add to their meshes.
+    #[cfg_attr(not(feature = "avian"), allow(dead_code))] // set by the collider subsystem only
     pub(crate) fn set_extra(&mut self, extra: Option<ChunkExtra>) {
         self.extra = extra;
     }
