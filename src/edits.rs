@@ -34,7 +34,7 @@ pub(crate) fn apply_edits(
             warn!("ReplaceField: {} is not a meshed volume", msg.volume);
             continue;
         };
-        let iso = state.base.1;
+        let iso = state.base_iso();
         if let Err(e) = state.swap_base(msg.field.0.clone(), iso) {
             warn!(
                 "ReplaceField on {}: replaying the edits failed: {e}",

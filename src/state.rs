@@ -114,14 +114,16 @@ pub struct WorkCounts {
 pub struct VolumeState {
     pub(crate) world: World,
     field: EditedField,
-    /// The volume's field and iso the edits are layered on.
-    pub(crate) base: (Arc<dyn Field>, f32),
+    /// Which of the volume's fields and isos the edits are layered on: the
+    /// field's address (the field itself is the volume's, and the edited
+    /// field's, which keeps it alive) and the iso; compared to notice a swap.
+    base: (usize, f32),
     /// One slot per loaded chunk.
     pub(crate) slots: ChunkMap<ChunkSlot>,
     /// The camera in the volume's local space: work is scheduled nearest first.
-    pub(crate) focus: Vec3,
+    focus: Vec3,
     /// The camera chunk and settings streaming last ran for.
-    pub(crate) stream_key: Option<(IVec3, u64, i32, i32)>,
+    stream_key: Option<(IVec3, u64, i32, i32)>,
     /// A horizon volume's level changes and layouts (the horizon subsystem's).
     pub(crate) horizon: HorizonState,
     /// What chunks that carry a collider add to their meshes (set by the
@@ -131,7 +133,8 @@ pub struct VolumeState {
 
 impl VolumeState {
     /// A state with no chunk loaded.
-    pub(crate) fn new(world: World, field: EditedField, base: (Arc<dyn Field>, f32)) -> Self {
+    pub(crate) fn new(world: World, field: EditedField, base: (&Arc<dyn Field>, f32)) -> Self {
+        let base = (field_id(base.0), base.1);
         VolumeState {
             world,
             field,
@@ -176,8 +179,29 @@ impl VolumeState {
     pub(crate) fn swap_base(&mut self, field: Arc<dyn Field>, iso: f32) -> kdcontour::Result<()> {
         let log = self.field.log();
         self.field = EditedField::replay(crate::volume::KdVolume::shifted(&field, iso), &log)?;
-        self.base = (field, iso);
+        self.base = (field_id(&field), iso);
         Ok(())
+    }
+
+    /// Whether `field` and `iso` are the ones the edits are layered on.
+    pub(crate) fn has_base(&self, field: &Arc<dyn Field>, iso: f32) -> bool {
+        self.base == (field_id(field), iso)
+    }
+
+    /// The iso the edits are layered on.
+    pub(crate) fn base_iso(&self) -> f32 {
+        self.base.1
+    }
+
+    /// Points scheduling at `focus` (the camera, in the volume's local space).
+    pub(crate) fn follow(&mut self, focus: Vec3) {
+        self.focus = focus;
+    }
+
+    /// Records that streaming runs for `key` (the camera's chunk and the
+    /// settings); false when it ran for the same key last time (nothing to do).
+    pub(crate) fn stream_to(&mut self, key: (IVec3, u64, i32, i32)) -> bool {
+        self.stream_key.replace(key) != Some(key)
     }
 
     /// The edit log, oldest first (serialisable with serde).
@@ -393,4 +417,9 @@ impl VolumeState {
         // never negative, so its bits sort as the number does.
         v.sort_by_cached_key(|k| (self.distance(self.focus, k).max(0.0).to_bits(), k.order()));
     }
+}
+
+/// A field's identity: its address, which stays put while the volume holds it.
+fn field_id(field: &Arc<dyn Field>) -> usize {
+    Arc::as_ptr(field) as *const () as usize
 }

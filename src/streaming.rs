@@ -41,7 +41,7 @@ fn stream_chunks(
     for (entity, vol, vol_tf, mut state) in &mut volumes {
         let state = &mut *state;
         let local = cam.map(to_volume(vol_tf)).unwrap_or(Vec3::ZERO);
-        state.focus = local;
+        state.follow(local);
         let (view_distance, min_y, max_y) = match vol.extent {
             VolumeExtent::Streaming {
                 view_distance,
@@ -67,19 +67,18 @@ fn stream_chunks(
             }
             VolumeExtent::Bounded { .. } => continue,
         };
-        let world = state.world();
         let key = (
-            world.chunk_at(local),
+            state.world().chunk_at(local),
             view_distance.to_bits() as u64,
             min_y,
             max_y,
         );
-        if state.stream_key == Some(key) {
+        if !state.stream_to(key) {
             continue; // the camera is in the same chunk as last time
         }
-        let side = world.chunk_res as f32 * world.cell_size;
+        let world = state.world();
+        let side = world.chunk_side();
         let near = world.chunks_near(local, view_distance);
-        state.stream_key = Some(key);
         let rows = min_y..=max_y;
         // Drop what is out of range (with one chunk side of slack) first.
         for k in state.world().chunks() {

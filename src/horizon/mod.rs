@@ -19,7 +19,7 @@
 //!
 //! ## Changing levels without a hole or an overlap
 //! A new layout adds chunks, drops chunks, and changes the neighbourhood (so the
-//! samples, see [`kdcontour::world::levels`]) or the seams of chunks it keeps. A
+//! samples, see [`kdcontour::world`]) or the seams of chunks it keeps. A
 //! level change is a transition: it waits for a new mesh of every added
 //! chunk, every kept chunk whose neighbourhood changed, and every chunk that
 //! owns a seam touching one of them or a dropped chunk. Those meshes are held
@@ -133,11 +133,10 @@ pub(crate) fn stream(
         rows.0,
         rows.1,
     );
-    if state.stream_key == Some(key) {
+    let res = world.chunk_res;
+    if !state.stream_to(key) {
         return;
     }
-    let res = world.chunk_res;
-    state.stream_key = Some(key);
     let keep = HorizonKeep {
         camera: cam,
         reach: cells.0 as f32 / res as f32,

@@ -144,7 +144,7 @@ pub(crate) fn init_volumes(
             }
         };
         let field = EditedField::new(KdVolume::shifted(&vol.field.0, vol.iso));
-        let mut state = VolumeState::new(world, field, (vol.field.0.clone(), vol.iso));
+        let mut state = VolumeState::new(world, field, (&vol.field.0, vol.iso));
         // A bounded world already lists its chunks; give each an entity. (A
         // streaming or horizon world is empty until streaming runs.)
         if let VolumeExtent::Bounded { .. } = vol.extent {
@@ -192,14 +192,14 @@ pub(crate) fn sync_volumes(
 ) {
     let _time = clock.measure();
     for (entity, vol, mut state) in &mut volumes {
-        let (field, iso) = &state.base;
-        if Arc::ptr_eq(field, &vol.field.0) && *iso == vol.iso {
+        if state.has_base(&vol.field.0, vol.iso) {
             continue;
         }
         if !vol.iso.is_finite() {
             warn!(
-                "KdVolume {entity}: iso {} must be finite; kept {iso}",
-                vol.iso
+                "KdVolume {entity}: iso {} must be finite; kept {}",
+                vol.iso,
+                state.base_iso()
             );
             continue;
         }
