@@ -48,8 +48,8 @@ pub(crate) fn apply_meshes(
         };
         // A level change whose meshes are all ready shows them in one frame,
         // whatever the budget (see `crate::horizon`).
-        if state.transition_ready() {
-            for k in state.finish_transition(up.commands) {
+        if crate::horizon::transition_ready(state) {
+            for k in crate::horizon::finish_transition(state, up.commands) {
                 up.show(state, k);
             }
         }

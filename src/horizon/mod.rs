@@ -119,7 +119,7 @@ pub(crate) fn stream(
             return;
         };
         state.horizon.pending_layout = None;
-        let started = result.and_then(|next| state.relayout(commands, volume, next, threshold));
+        let started = result.and_then(|next| relayout(state, commands, volume, next, threshold));
         if let Err(e) = started {
             error!("KdVolume {volume}: {e}");
         }
@@ -150,143 +150,141 @@ pub(crate) fn stream(
     );
 }
 
-impl VolumeState {
-    /// Replaces the layout and starts the level change (see the module docs).
-    pub(crate) fn relayout(
-        &mut self,
-        commands: &mut Commands,
-        volume: Entity,
-        next: NextLayout,
-        threshold: f32,
-    ) -> kdcontour::Result<()> {
-        let NextLayout {
-            prepared,
-            keep,
-            kept: members,
-            owners,
-            partners,
-        } = next;
-        let layout = prepared.layout();
-        let first = !self.slots.values().any(|s| s.shown());
-        let dropped: Vec<ChunkKey> = self
-            .slots
-            .keys()
-            .filter(|k| !layout.contains(k) || !keep.keeps(k))
-            .copied()
-            .collect();
-        // The kept chunks that own seams with dropped ones (in the old layout).
-        let mut touched: Vec<ChunkKey> = Vec::new();
-        for k in &dropped {
-            match self.horizon.seam_owners.get(k) {
-                Some(o) => touched.extend(o),
-                None => touched.extend(self.world().seam_owners_touching(k)),
-            }
+/// Replaces the layout and starts the level change (see the module docs).
+pub(crate) fn relayout(
+    state: &mut VolumeState,
+    commands: &mut Commands,
+    volume: Entity,
+    next: NextLayout,
+    threshold: f32,
+) -> kdcontour::Result<()> {
+    let NextLayout {
+        prepared,
+        keep,
+        kept: members,
+        owners,
+        partners,
+    } = next;
+    let layout = prepared.layout();
+    let first = !state.slots.values().any(|s| s.shown());
+    let dropped: Vec<ChunkKey> = state
+        .slots
+        .keys()
+        .filter(|k| !layout.contains(k) || !keep.keeps(k))
+        .copied()
+        .collect();
+    // The kept chunks that own seams with dropped ones (in the old layout).
+    let mut touched: Vec<ChunkKey> = Vec::new();
+    for k in &dropped {
+        match state.horizon.seam_owners.get(k) {
+            Some(o) => touched.extend(o),
+            None => touched.extend(state.world().seam_owners_touching(k)),
         }
-        let world = self.world_mut();
-        let stale = world.set_prepared(prepared)?;
-        // A chunk the layout keeps but the view no longer does loses its tree,
-        // so no seam is cut against it.
-        for k in &dropped {
-            if world.layout().contains(k) {
-                world.remove_tree(k);
-            }
+    }
+    let world = state.world_mut();
+    let stale = world.set_prepared(prepared)?;
+    // A chunk the layout keeps but the view no longer does loses its tree,
+    // so no seam is cut against it.
+    for k in &dropped {
+        if world.layout().contains(k) {
+            world.remove_tree(k);
         }
-        let mut retired = Vec::new();
-        let mut garbage = Vec::with_capacity(dropped.len());
-        for k in &dropped {
-            let slot = self.slots.remove(k).expect("listed");
-            if slot.shown() && !first {
-                retired.push((*k, slot.entity()));
-            } else {
-                commands.entity(slot.entity()).despawn();
-            }
-            garbage.push(slot);
+    }
+    let mut retired = Vec::new();
+    let mut garbage = Vec::with_capacity(dropped.len());
+    for k in &dropped {
+        let slot = state.slots.remove(k).expect("listed");
+        if slot.shown() && !first {
+            retired.push((*k, slot.entity()));
+        } else {
+            commands.entity(slot.entity()).despawn();
         }
-        for k in members {
-            if !self.slots.contains_key(&k) {
-                self.add_slot(commands, volume, k, threshold);
-            }
+        garbage.push(slot);
+    }
+    for k in members {
+        if !state.slots.contains_key(&k) {
+            state.add_slot(commands, volume, k, threshold);
         }
-        // (Chunks the view leaves out are never built: no seam is cut against
-        // them, so only the kept ones count.)
-        let stale: Vec<ChunkKey> = stale
-            .into_iter()
-            .filter(|k| self.slots.contains_key(k))
-            .collect();
-        for k in &stale {
-            self.mark_build(k);
-            touched.extend(owners.get(k).into_iter().flatten());
-        }
-        touched.retain(|k| self.slots.contains_key(k));
-        touched.sort_by_key(|k| k.order());
-        touched.dedup();
-        if touched.is_empty() && dropped.is_empty() {
-            // Nothing changed (the camera moved within the same rings).
-            return Ok(());
-        }
-        let mut blocked = ChunkSet::default();
-        if !first {
-            for k in &touched {
-                blocked.insert(*k);
-                blocked.extend(partners.get(k).into_iter().flatten());
-            }
-        }
-        drop_elsewhere((
-            garbage,
-            std::mem::replace(&mut self.horizon.seam_owners, owners),
-            std::mem::replace(&mut self.horizon.seam_partners, partners),
-        ));
+    }
+    // (Chunks the view leaves out are never built: no seam is cut against
+    // them, so only the kept ones count.)
+    let stale: Vec<ChunkKey> = stale
+        .into_iter()
+        .filter(|k| state.slots.contains_key(k))
+        .collect();
+    for k in &stale {
+        state.mark_build(k);
+        touched.extend(owners.get(k).into_iter().flatten());
+    }
+    touched.retain(|k| state.slots.contains_key(k));
+    touched.sort_by_key(|k| k.order());
+    touched.dedup();
+    if touched.is_empty() && dropped.is_empty() {
+        // Nothing changed (the camera moved within the same rings).
+        return Ok(());
+    }
+    let mut blocked = ChunkSet::default();
+    if !first {
         for k in &touched {
-            let slot = self.slots.get_mut(k).expect("kept");
-            slot.hold_for_change(!first);
+            blocked.insert(*k);
+            blocked.extend(partners.get(k).into_iter().flatten());
         }
-        self.horizon.transition = Some(Transition {
-            waiting: touched,
-            hold: !first,
-            keep,
-            blocked,
-            retired,
-        });
-        Ok(())
     }
-
-    /// Whether the level change in progress has every mesh it waits for.
-    pub(crate) fn transition_ready(&self) -> bool {
-        let Some(t) = &self.horizon.transition else {
-            return false;
-        };
-        t.waiting.iter().all(|k| {
-            self.slots.get(k).is_none_or(|s| {
-                s.work.idle()
-                    && if t.hold {
-                        s.work.has_ready()
-                    } else {
-                        s.shown() && !s.work.has_ready()
-                    }
-            })
-        })
+    drop_elsewhere((
+        garbage,
+        std::mem::replace(&mut state.horizon.seam_owners, owners),
+        std::mem::replace(&mut state.horizon.seam_partners, partners),
+    ));
+    for k in &touched {
+        let slot = state.slots.get_mut(k).expect("kept");
+        slot.hold_for_change(!first);
     }
+    state.horizon.transition = Some(Transition {
+        waiting: touched,
+        hold: !first,
+        keep,
+        blocked,
+        retired,
+    });
+    Ok(())
+}
 
-    /// Ends the level change: despawns the chunks it replaced and returns the
-    /// chunks whose held meshes must be shown in this same frame.
-    pub(crate) fn finish_transition(&mut self, commands: &mut Commands) -> Vec<ChunkKey> {
-        let Some(t) = self.horizon.transition.take() else {
-            return Vec::new();
-        };
-        self.horizon.shown = Some((self.world().layout().clone(), t.keep));
-        for (_, e) in t.retired {
-            commands.entity(e).despawn();
-        }
-        let mut show = Vec::new();
-        for k in t.waiting {
-            if let Some(slot) = self.slots.get_mut(&k) {
-                if slot.release() {
-                    show.push(k);
+/// Whether the level change in progress has every mesh it waits for.
+pub(crate) fn transition_ready(state: &VolumeState) -> bool {
+    let Some(t) = &state.horizon.transition else {
+        return false;
+    };
+    t.waiting.iter().all(|k| {
+        state.slots.get(k).is_none_or(|s| {
+            s.work.idle()
+                && if t.hold {
+                    s.work.has_ready()
+                } else {
+                    s.shown() && !s.work.has_ready()
                 }
+        })
+    })
+}
+
+/// Ends the level change: despawns the chunks it replaced and returns the
+/// chunks whose held meshes must be shown in this same frame.
+pub(crate) fn finish_transition(state: &mut VolumeState, commands: &mut Commands) -> Vec<ChunkKey> {
+    let Some(t) = state.horizon.transition.take() else {
+        return Vec::new();
+    };
+    state.horizon.shown = Some((state.world().layout().clone(), t.keep));
+    for (_, e) in t.retired {
+        commands.entity(e).despawn();
+    }
+    let mut show = Vec::new();
+    for k in t.waiting {
+        if let Some(slot) = state.slots.get_mut(&k) {
+            if slot.release() {
+                show.push(k);
             }
         }
-        show
     }
+    show
 }
 
 #[cfg(test)]

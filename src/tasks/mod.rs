@@ -49,107 +49,102 @@ enum Work {
     Build,
 }
 
-impl VolumeState {
-    /// Chunks waiting for `work` that can start now, nearest the camera first
-    /// (ties in a fixed order, so runs are reproducible).
-    fn waiting(&self, work: Work) -> Vec<ChunkKey> {
-        let mut v: Vec<ChunkKey> = self
-            .slots
-            .iter()
-            .filter(|(_, s)| match work {
-                // Not while a build of the chunk is queued or running: its tree
-                // is about to change.
-                Work::Extract => {
-                    s.work.need_extract && s.work.building.is_none() && !s.work.need_build
-                }
-                Work::Build => s.work.need_build && s.work.building.is_none(),
-            })
-            .map(|(c, _)| *c)
-            // An extraction reads the trees of its seams' chunks: one whose
-            // partner is about to change would be done again when it lands
-            // (a horizon's first load did each 2.5 times).
-            .filter(|c| matches!(work, Work::Build) || !self.partner_pending(c))
-            .collect();
-        self.nearest_first(&mut v);
-        v
-    }
-
-    /// Whether a chunk of a seam `c` owns waits for a build.
-    fn partner_pending(&self, c: &ChunkKey) -> bool {
-        self.horizon.seam_partners(c).is_some_and(|ps| {
-            ps.iter()
-                .any(|p| p != c && self.slots.get(p).is_some_and(|s| s.work.build_pending()))
+/// Chunks waiting for `work` that can start now, nearest the camera first
+/// (ties in a fixed order, so runs are reproducible).
+fn waiting(state: &VolumeState, work: Work) -> Vec<ChunkKey> {
+    let mut v: Vec<ChunkKey> = state
+        .slots
+        .iter()
+        .filter(|(_, s)| match work {
+            // Not while a build of the chunk is queued or running: its tree
+            // is about to change.
+            Work::Extract => s.work.need_extract && s.work.building.is_none() && !s.work.need_build,
+            Work::Build => s.work.need_build && s.work.building.is_none(),
         })
-    }
+        .map(|(c, _)| *c)
+        // An extraction reads the trees of its seams' chunks: one whose
+        // partner is about to change would be done again when it lands
+        // (a horizon's first load did each 2.5 times).
+        .filter(|c| matches!(work, Work::Build) || !partner_pending(state, c))
+        .collect();
+    state.nearest_first(&mut v);
+    v
+}
 
-    /// Starts `work` on chunk `c`; false when no task was needed.
-    fn start(&mut self, workers: &ChunkWorkers, work: Work, c: ChunkKey) -> bool {
-        match work {
-            Work::Extract => {
-                let threshold = self.world().threshold(&c);
-                let snapshot = self.world().snapshot(&c);
-                let field = self.field().clone();
-                // Creases are looked for at the finest level's scale at every
-                // level: a far chunk's coarse faces bend at their own scale
-                // everywhere, and splitting there would draw whole faces in
-                // one material (angular patches on distant hills).
-                let cell = self.world().cell_size;
-                let extra = self.extra_for(&self.slots[&c]);
-                let slot = self.slots.get_mut(&c).expect("listed");
-                slot.work.need_extract = false;
-                let Some(snapshot) = snapshot else {
-                    // No tree (no surface yet, or its build failed): show nothing.
-                    slot.work.extracting = None;
-                    slot.work.ready = Some(ReadyMesh::new(threshold, &IndexedMesh::default()));
-                    return false;
-                };
-                let stamp = slot.work.extract_stamp;
-                // A newer extraction replaces a running one: dropping its task
-                // cancels it (its stamp would be stale anyway).
-                slot.work.extracting = Some(workers.run(move || {
-                    let t = std::time::Instant::now();
-                    let mut mesh = IndexedMesh::default();
-                    // Vertex materials come from the tree, when the volume's
-                    // world carries them (a terrain material).
-                    snapshot.extract(&mut mesh);
-                    // The extra (a collider) takes the welded mesh; the drawn one
-                    // has its vertices split along hard material borders, so a
-                    // border is drawn along the crease, not as a sawtooth across it.
-                    let extra = extra.map(|(b, wanted)| b.build(wanted.then_some(&mesh)));
-                    kdcontour::material::split_borders(&mut mesh, &field, cell);
-                    let mut ready = ReadyMesh::new(threshold, &mesh);
-                    ready.extra = extra;
-                    ExtractOut {
-                        stamp,
-                        mesh: ready,
-                        ms: t.elapsed().as_secs_f64() * 1e3,
-                    }
-                }));
-            }
-            Work::Build => {
-                let job = self.world().chunk_build(&c);
-                let field = self.field().clone();
-                let slot = self.slots.get_mut(&c).expect("listed");
-                slot.work.need_build = false;
-                let generation = slot.work.build_gen;
-                slot.work.building = Some(workers.run(move || {
-                    let t = std::time::Instant::now();
-                    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                        job.build(&field)
-                    }))
-                    .map_err(|p| format!("the field panicked: {}", panic_message(&*p)))
-                    .and_then(|r| r.map_err(|e| e.to_string()));
-                    BuildOut {
-                        generation,
-                        job,
-                        result,
-                        ms: t.elapsed().as_secs_f64() * 1e3,
-                    }
-                }));
-            }
+/// Whether a chunk of a seam `c` owns waits for a build.
+fn partner_pending(state: &VolumeState, c: &ChunkKey) -> bool {
+    state.horizon.seam_partners(c).is_some_and(|ps| {
+        ps.iter()
+            .any(|p| p != c && state.slots.get(p).is_some_and(|s| s.work.build_pending()))
+    })
+}
+
+/// Starts `work` on chunk `c`; false when no task was needed.
+fn start(state: &mut VolumeState, workers: &ChunkWorkers, work: Work, c: ChunkKey) -> bool {
+    match work {
+        Work::Extract => {
+            let threshold = state.world().threshold(&c);
+            let snapshot = state.world().snapshot(&c);
+            let field = state.field().clone();
+            // Creases are looked for at the finest level's scale at every
+            // level: a far chunk's coarse faces bend at their own scale
+            // everywhere, and splitting there would draw whole faces in
+            // one material (angular patches on distant hills).
+            let cell = state.world().cell_size;
+            let extra = state.extra_for(&state.slots[&c]);
+            let slot = state.slots.get_mut(&c).expect("listed");
+            slot.work.need_extract = false;
+            let Some(snapshot) = snapshot else {
+                // No tree (no surface yet, or its build failed): show nothing.
+                slot.work.extracting = None;
+                slot.work.ready = Some(ReadyMesh::new(threshold, &IndexedMesh::default()));
+                return false;
+            };
+            let stamp = slot.work.extract_stamp;
+            // A newer extraction replaces a running one: dropping its task
+            // cancels it (its stamp would be stale anyway).
+            slot.work.extracting = Some(workers.run(move || {
+                let t = std::time::Instant::now();
+                let mut mesh = IndexedMesh::default();
+                // Vertex materials come from the tree, when the volume's
+                // world carries them (a terrain material).
+                snapshot.extract(&mut mesh);
+                // The extra (a collider) takes the welded mesh; the drawn one
+                // has its vertices split along hard material borders, so a
+                // border is drawn along the crease, not as a sawtooth across it.
+                let extra = extra.map(|(b, wanted)| b.build(wanted.then_some(&mesh)));
+                kdcontour::material::split_borders(&mut mesh, &field, cell);
+                let mut ready = ReadyMesh::new(threshold, &mesh);
+                ready.extra = extra;
+                ExtractOut {
+                    stamp,
+                    mesh: ready,
+                    ms: t.elapsed().as_secs_f64() * 1e3,
+                }
+            }));
         }
-        true
+        Work::Build => {
+            let job = state.world().chunk_build(&c);
+            let field = state.field().clone();
+            let slot = state.slots.get_mut(&c).expect("listed");
+            slot.work.need_build = false;
+            let generation = slot.work.build_gen;
+            slot.work.building = Some(workers.run(move || {
+                let t = std::time::Instant::now();
+                let result =
+                    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| job.build(&field)))
+                        .map_err(|p| format!("the field panicked: {}", panic_message(&*p)))
+                        .and_then(|r| r.map_err(|e| e.to_string()));
+                BuildOut {
+                    generation,
+                    job,
+                    result,
+                    ms: t.elapsed().as_secs_f64() * 1e3,
+                }
+            }));
+        }
     }
+    true
 }
 
 /// The text of a caught panic.
@@ -194,11 +189,11 @@ fn schedule_tasks(
             if in_flight >= settings.max_tasks_in_flight {
                 return;
             }
-            for c in state.waiting(work) {
+            for c in waiting(&state, work) {
                 if in_flight >= settings.max_tasks_in_flight {
                     return;
                 }
-                if !state.start(workers, work, c) {
+                if !start(&mut state, workers, work, c) {
                     continue;
                 }
                 in_flight += 1;
