@@ -29,8 +29,8 @@ pub(super) fn active_cells(
         cfg
     };
 
-    // Active cells, layer by layer.
-    let layers: Vec<Vec<ActiveCell>> = (0..n.z)
+    // Active cells, z slab by z slab.
+    let slabs: Vec<Vec<ActiveCell>> = (0..n.z)
         .into_par_iter()
         .map(|z| {
             let mut out = Vec::new();
@@ -89,8 +89,8 @@ pub(super) fn active_cells(
             out
         })
         .collect();
-    let mut cells: Vec<ActiveCell> = Vec::with_capacity(layers.iter().map(Vec::len).sum());
-    for l in layers {
+    let mut cells: Vec<ActiveCell> = Vec::with_capacity(slabs.iter().map(Vec::len).sum());
+    for l in slabs {
         cells.extend(l);
     }
     let mut patches = 0u32;

@@ -65,7 +65,7 @@ pub struct Hermite {
     /// border is near). Empty otherwise.
     pub(crate) cell_material: Vec<u16>,
     /// With [`Boundary::Capped`] and a solid that reaches the grid's faces, the
-    /// grid the caps close (this data's grid less its layer of caps); `None`
+    /// grid the caps close (this data's grid less its caps); `None`
     /// otherwise.
     pub(crate) capped: Option<Grid>,
 }

@@ -42,7 +42,7 @@ pub fn one_sign(
 
 /// Samples `field` at every corner of `grid`, in parallel over z slabs.
 ///
-/// Without a Lipschitz bound, layers of corners (one y, all x and z) outside the
+/// Without a Lipschitz bound, planes of corners (one y, all x and z) outside the
 /// span that [`Field::bound`] cannot prove one-signed get `FAR` with their
 /// sign instead of an evaluation.
 ///
@@ -58,7 +58,7 @@ pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Vec
     let mut values = vec![0f32; grid.corner_count() as usize];
     let lipschitz = field.lipschitz().filter(|l| l.is_finite() && *l > 0.0);
     match lipschitz {
-        None => sample_layers(field, grid, &mut values),
+        None => sample_planes(field, grid, &mut values),
         Some(l) => sample_skipping(field, grid, l, &mut values),
     }
     // Blocks scanned without an early exit vectorise; `position_first` per value
@@ -87,12 +87,12 @@ pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Vec
     Ok(values)
 }
 
-/// Samples with [`Field::sample_grid`] in parallel z slabs, except the layers of
-/// corners at one y (whole xz planes) below the lowest or above the highest layer
+/// Samples with [`Field::sample_grid`] in parallel z slabs, except the planes of
+/// corners at one y (whole xz planes) below the lowest or above the highest plane
 /// that [`Field::bound`] cannot prove one-signed: those get `FAR` with their
 /// sign, as skipped blocks do (a terrain chunk far larger than its hills'
-/// height evaluates only the layers that reach them).
-fn sample_layers(field: &dyn Field, grid: &Grid, values: &mut [f32]) {
+/// height evaluates only the planes that reach them).
+fn sample_planes(field: &dyn Field, grid: &Grid, values: &mut [f32]) {
     const SLICES: u32 = 2;
     let c = grid.corners();
     let known: Vec<Option<f32>> = (0..c.y)
@@ -116,7 +116,7 @@ fn sample_layers(field: &dyn Field, grid: &Grid, values: &mut [f32]) {
         return;
     };
     let yb = known.iter().rposition(|k| k.is_none()).unwrap_or(ya);
-    // The layers ya..=yb: the same lattice points, so bitwise the same values.
+    // The planes ya..=yb: the same lattice points, so bitwise the same values.
     let sub = Grid {
         cells: UVec3::new(grid.cells.x, (yb - ya) as u32, grid.cells.z),
         offset: grid.offset + glam::IVec3::new(0, ya as i32, 0),

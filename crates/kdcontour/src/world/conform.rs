@@ -287,7 +287,7 @@ impl ChunkBuild {
         Ok(values)
     }
 
-    /// Rule 2: across a face whose neighbours are at another level, the halo layer
+    /// Rule 2: across a face whose neighbours are at another level, the halo
     /// is inside, so the chunk's ambiguous faces there separate their outside
     /// corners (join their inside ones), on both sides of the seam.
     fn force_halo(&self, values: &mut [f32]) {

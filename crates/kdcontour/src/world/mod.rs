@@ -20,7 +20,7 @@
 //! All levels sit on one lattice: a level-`k` sample is the level-0 lattice point
 //! `2^k` times its index, computed in the same way at every level, so where two
 //! chunks' samples coincide they are bitwise the same ([`Grid::offset`]). Chunks
-//! sample one extra layer of cells around their box (the halo), whose cells decide
+//! sample one extra cell around their box on every side (the halo), whose cells decide
 //! how the chunk's boundary cells resolve ambiguous faces, so both chunks that share
 //! a face resolve it the same way.
 //!
