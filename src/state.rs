@@ -279,6 +279,12 @@ impl VolumeState {
         None
     }
 
+    /// Whether an extra is set.
+    #[cfg_attr(not(feature = "avian"), allow(dead_code))] // set by the collider subsystem only
+    pub(crate) fn has_extra(&self) -> bool {
+        self.extra.is_some()
+    }
+
     /// Sets what chunks that carry a collider add to their meshes.
     #[cfg_attr(not(feature = "avian"), allow(dead_code))] // set by the collider subsystem only
     pub(crate) fn set_extra(&mut self, extra: Option<ChunkExtra>) {

@@ -141,12 +141,15 @@ fn want_colliders(
     let _time = clock.measure();
     for (vol_tf, mut state) in &mut volumes {
         let state = &mut *state;
-        state.set_extra(Some(ChunkExtra {
-            builder: Arc::new(ColliderExtra {
-                layers: settings.layers,
-            }),
-            on: settings.enabled.then_some(settings.threshold),
-        }));
+        // Set when the settings change or the volume is new, not every frame.
+        if settings.is_changed() || !state.has_extra() {
+            state.set_extra(Some(ChunkExtra {
+                builder: Arc::new(ColliderExtra {
+                    layers: settings.layers,
+                }),
+                on: settings.enabled.then_some(settings.threshold),
+            }));
+        }
         let to_local = to_volume(vol_tf);
         let points: Vec<Vec3> = anchors.iter().map(|a| to_local(a.translation())).collect();
         // Marks on the slots rather than a set of keys: the near chunks' seam
