@@ -7,8 +7,9 @@ mod rows;
 
 use super::Field;
 use glam::{DVec3, Vec3};
-use noise::{Fbm, MultiFractal, NoiseFn, Perlin};
-use perlin::{Fbm3, Perlin3};
+#[cfg(test)]
+use noise::{Fbm, MultiFractal, Perlin};
+use perlin::{Fbm2, Fbm3, Perlin3};
 use serde::{Deserialize, Serialize};
 
 /// Parameters of an fBm height field `y = base + amplitude * fbm(x, z)`.
@@ -133,6 +134,9 @@ fn default_octaves() -> u32 {
     5
 }
 
+/// The `noise` crate's fBm with our parameters: the reference the copies in
+/// module `perlin` are tested against.
+#[cfg(test)]
 fn fbm(seed: u32, frequency: f32, octaves: u32) -> Fbm<Perlin> {
     Fbm::<Perlin>::new(seed)
         .set_octaves(octaves as usize)
@@ -150,15 +154,6 @@ pub const MAX_FREQUENCY: f32 = 1e6;
 /// make noise of; beyond this the terrain's value is NaN, which meshing reports
 /// as a non-finite sample at that point.
 pub const NOISE_REACH: f64 = 1e15;
-
-/// `noise` at `p`, or NaN when `p` scaled by `reach` leaves [`NOISE_REACH`].
-fn guarded<const N: usize>(noise: &impl NoiseFn<f64, N>, p: [f64; N], reach: f64) -> f64 {
-    if p.iter().all(|c| (c * reach).abs() <= NOISE_REACH) {
-        noise.get(p)
-    } else {
-        f64::NAN
-    }
-}
 
 /// Why noise scaled by `reach` gives no value at `q` (its own coordinates), or
 /// `None` when every coordinate is within [`NOISE_REACH`]: how far it reached and
@@ -212,16 +207,19 @@ pub(crate) fn check_noise(
 }
 
 /// An fBm height field (see [`HeightfieldParams`]).
+///
+/// Its noise is the `noise` crate's 2-D `Fbm<Perlin>`, computed bit for bit by a
+/// copy (module `perlin`) that also differentiates it: the gradient is analytic.
 pub struct Heightfield {
     params: HeightfieldParams,
-    noise: Fbm<Perlin>,
+    noise: Fbm2,
     paint: materials::Paint,
 }
 
 impl Heightfield {
     /// Builds the noise generator.
     pub fn new(params: HeightfieldParams) -> Self {
-        let noise = fbm(params.seed, params.frequency, params.octaves);
+        let noise = Fbm2::new(params.seed, params.frequency, params.octaves);
         let paint =
             materials::Paint::new(params.seed, params.base, params.amplitude, params.frequency);
         Heightfield {
@@ -233,9 +231,18 @@ impl Heightfield {
 
     /// The terrain height at `(x, z)`.
     pub fn height(&self, x: f32, z: f32) -> f32 {
-        self.params.base
-            + self.params.amplitude
-                * guarded(&self.noise, [x as f64, z as f64], self.reach()) as f32
+        let q = [x as f64, z as f64];
+        let n = if self.in_reach(q) {
+            self.noise.get(q)
+        } else {
+            f64::NAN
+        };
+        self.params.base + self.params.amplitude * n as f32
+    }
+
+    /// Whether the noise at `q` stays within [`NOISE_REACH`].
+    fn in_reach(&self, q: [f64; 2]) -> bool {
+        q.iter().all(|c| (c * self.reach()).abs() <= NOISE_REACH)
     }
 
     /// How far a unit step moves the finest octave's noise coordinates.
@@ -247,11 +254,6 @@ impl Heightfield {
     /// (see [`NOISE_REACH`]); `None` where it is finite.
     pub fn reach_fault(&self, p: Vec3) -> Option<String> {
         reach_fault(&[p.x as f64, p.z as f64], self.reach())
-    }
-
-    /// The terrain height at `(x, z)` in f64 (for differences far from the origin).
-    fn height64(&self, x: f64, z: f64) -> f64 {
-        self.params.base as f64 + self.params.amplitude as f64 * self.noise.get([x, z])
     }
 }
 
@@ -279,19 +281,16 @@ impl Field for Heightfield {
         p.y - self.height(p.x, p.z)
     }
 
-    /// Central differences of the height in f64 with a step of 1e-3 of the
-    /// first octave's period: as exact 65,536 units out as at the origin.
+    /// Analytic, in f64: as exact 65,536 units out as at the origin.
     fn gradient(&self, p: Vec3) -> Vec3 {
-        let h = 1e-3 / self.params.frequency as f64;
-        let (x, z) = (p.x as f64, p.z as f64);
-        // Out of the noise's reach the value is NaN, and so is the gradient
-        // (the unguarded f64 noise would panic there).
-        if reach_fault(&[x.abs() + h, z.abs() + h], self.reach()).is_some() {
+        let q = [p.x as f64, p.z as f64];
+        // Out of the noise's reach the value is NaN, and so is the gradient.
+        if !self.in_reach(q) {
             return Vec3::NAN;
         }
-        let dx = (self.height64(x + h, z) - self.height64(x - h, z)) / (2.0 * h);
-        let dz = (self.height64(x, z + h) - self.height64(x, z - h)) / (2.0 * h);
-        Vec3::new(-dx as f32, 1.0, -dz as f32)
+        let (_, [dx, dz]) = self.noise.get_grad(q);
+        let amp = self.params.amplitude as f64;
+        Vec3::new((-amp * dx) as f32, 1.0, (-amp * dz) as f32)
     }
 
     /// `y - height` with the height within `base +- amplitude` (`FBM_MAX`, proven in the source).
@@ -308,6 +307,10 @@ impl Field for Heightfield {
     /// By slope, height and a noise mask (see `terrain/materials.rs`).
     fn material(&self, p: Vec3) -> crate::material::MaterialBlend {
         self.paint.at(p, self.gradient(p), 0.0)
+    }
+
+    fn material_with_gradient(&self, p: Vec3, gradient: Vec3) -> crate::material::MaterialBlend {
+        self.paint.at(p, gradient, 0.0)
     }
 
     fn has_materials(&self) -> bool {
@@ -404,25 +407,70 @@ impl Density {
         reach_fault(&p.as_dvec3().to_array(), self.reach())
     }
 
-    /// How far into a cave wall `p` is (0 to 1, see `terrain/materials.rs`).
+    /// The gradient at `p` ([`Field::gradient`], bit for bit) and how far into a
+    /// cave wall `p` is (0 to 1, see `terrain/materials.rs`), from one
+    /// evaluation of each noise's value and gradient: the material rule needs
+    /// both, and the cave weight is zero wherever the tunnel term is a world
+    /// unit or more below the surface term (the second cave noise is skipped
+    /// there, as the gradient skips it).
+    fn gradient_and_cave(&self, p: Vec3) -> (Vec3, f32) {
+        if !self.in_reach(p.as_dvec3().to_array()) {
+            return (Vec3::NAN, 0.0);
+        }
+        let q = p.as_dvec3();
+        let amp = self.params.amplitude as f64;
+        let (n, gn) = self.noise.get_grad(q);
+        let solid = q.y - self.params.base as f64 - amp * n;
+        let g_solid = DVec3::Y - gn * amp;
+        let (Some(c), Some((a, b))) = (&self.params.caves, &self.caves) else {
+            return (g_solid.as_vec3(), 0.0);
+        };
+        let f = c.frequency as f64;
+        let (n1, g1) = a.get_grad(q * f);
+        // As in `gradient`: with `n2 = 0` the tunnel term is at its largest.
+        if solid > (c.radius as f64 - n1.abs()) / f - c.fade(-solid) + 1.0 {
+            return (g_solid.as_vec3(), 0.0);
+        }
+        let (n2, g2) = b.get_grad(q * f);
+        let len = n1.hypot(n2);
+        let tunnel = (c.radius as f64 - len) / f - c.fade(-solid);
+        let cave = materials::cave_weight(solid as f32, tunnel as f32);
+        if solid >= tunnel {
+            return (g_solid.as_vec3(), cave);
+        }
+        let g_len = if len > 0.0 {
+            (g1 * n1 + g2 * n2) / len
+        } else {
+            DVec3::ZERO
+        };
+        ((g_solid * c.fade_slope(-solid) - g_len).as_vec3(), cave)
+    }
+
+    /// How far into a cave wall `p` is (0 to 1), as [`Density::gradient_and_cave`]
+    /// finds it (to rounding) from the noises' values alone.
     fn cave_weight(&self, p: Vec3) -> f32 {
         let q = [p.x as f64, p.y as f64, p.z as f64];
         if !self.in_reach(q) {
             return 0.0;
         }
-        let solid = p.y - self.params.base - self.params.amplitude * self.noise.get(q) as f32;
-        match self.cave_noise(q) {
-            Some((c, n1, n2)) => {
-                let (n1, n2) = (n1 as f32, n2 as f32);
-                let tunnel = (c.radius - (n1 * n1 + n2 * n2).sqrt()) / c.frequency;
-                materials::cave_weight(solid, tunnel - c.fade(-solid as f64) as f32)
-            }
-            None => 0.0,
+        let solid =
+            q[1] - self.params.base as f64 - self.params.amplitude as f64 * self.noise.get(q);
+        let (Some(c), Some((a, b))) = (&self.params.caves, &self.caves) else {
+            return 0.0;
+        };
+        let f = c.frequency as f64;
+        let qc = [q[0] * f, q[1] * f, q[2] * f];
+        let n1 = a.get(qc);
+        if solid > (c.radius as f64 - n1.abs()) / f - c.fade(-solid) + 1.0 {
+            return 0.0;
         }
+        let tunnel = (c.radius as f64 - n1.hypot(b.get(qc))) / f - c.fade(-solid);
+        materials::cave_weight(solid as f32, tunnel as f32)
     }
 
     /// The two cave noises at `q`, if there are caves (cave walls' material,
     /// and the tests' reference).
+    #[cfg(test)]
     fn cave_noise(&self, q: [f64; 3]) -> Option<(&CaveParams, f64, f64)> {
         match (&self.caves, &self.params.caves) {
             (Some((a, b)), Some(c)) => {
@@ -473,7 +521,14 @@ impl Field for Density {
     /// By slope, height, a noise mask and cave walls (see
     /// `terrain/materials.rs`).
     fn material(&self, p: Vec3) -> crate::material::MaterialBlend {
-        self.paint.at(p, self.gradient(p), self.cave_weight(p))
+        let (gradient, cave) = self.gradient_and_cave(p);
+        self.paint.at(p, gradient, cave)
+    }
+
+    /// [`Field::material`] to rounding (the cave weight from the noises'
+    /// values instead of their values with gradients).
+    fn material_with_gradient(&self, p: Vec3, gradient: Vec3) -> crate::material::MaterialBlend {
+        self.paint.at(p, gradient, self.cave_weight(p))
     }
 
     fn has_materials(&self) -> bool {

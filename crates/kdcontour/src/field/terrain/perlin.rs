@@ -7,6 +7,9 @@
 //!   the permutation is read from a plain table and nothing is generic.
 //! - [`Perlin3::get_grad`] and [`Fbm3::get_grad`] differentiate it: one
 //!   evaluation gives value and gradient, where central differences take six.
+//! - [`Perlin2`] and [`Fbm2`] do the same for `perlin_2d` (the height field's
+//!   noise): its values bit for bit, and the gradient with them, where central
+//!   differences took four evaluations.
 
 use glam::DVec3;
 use noise::permutationtable::{NoiseHasher, PermutationTable};
@@ -302,5 +305,144 @@ impl Fbm3 {
             f *= 2.0;
         }
         (v * self.scale, g * self.scale)
+    }
+}
+
+/// `perlin_2d`'s scale, `2 / sqrt 2` (computed as `noise` computes it).
+const SCALE_FACTOR_2D: f64 = 2.0 / std::f64::consts::SQRT_2;
+
+/// `perlin_2d`'s gradient vectors, by the hash's low two bits.
+const GRADS_2D: [[f64; 2]; 4] = [[1.0, 1.0], [-1.0, 1.0], [1.0, -1.0], [-1.0, -1.0]];
+
+/// 2-D Perlin noise of one seed: `noise::Perlin::new(seed)`'s 2-D values, bit
+/// for bit.
+#[derive(Clone)]
+pub(super) struct Perlin2 {
+    /// The permutation of `PermutationTable::new(seed)`.
+    perm: [u8; 256],
+}
+
+impl Perlin2 {
+    /// The noise `noise::Perlin::new(seed)` computes in 2-D.
+    pub(super) fn new(seed: u32) -> Self {
+        Perlin2 {
+            perm: Perlin3::new(seed).perm,
+        }
+    }
+
+    /// `PermutationTable::hash` of `[x, y]`.
+    #[inline]
+    fn hash(&self, x: isize, y: isize) -> usize {
+        let p = |i: usize| self.perm[i & 0xff] as usize;
+        p(p(x as usize & 0xff) ^ (y as usize & 0xff))
+    }
+
+    /// The value at `q` (noise units), as `perlin_2d` computes it.
+    #[inline]
+    pub(super) fn get(&self, q: [f64; 2]) -> f64 {
+        let c = [lattice(q[0]), lattice(q[1])];
+        let d = [q[0] - c[0] as f64, q[1] - c[1] as f64];
+        let g = |ox: isize, oy: isize| {
+            let p = [d[0] - ox as f64, d[1] - oy as f64];
+            // `x + y`, `-x + y`, `x - y`, `-x - y` by the hash, bit for bit
+            // (`-a` is `-1 * a`, and `a - b` is `a + -b`).
+            let [sa, sb] = GRADS_2D[self.hash(c[0] + ox, c[1] + oy) & 0b11];
+            sa * p[0] + sb * p[1]
+        };
+        let (g00, g10, g01, g11) = (g(0, 0), g(1, 0), g(0, 1), g(1, 1));
+        let (cx, cy) = (quintic(d[0]), quintic(d[1]));
+        let result = linear(linear(g00, g01, cy), linear(g10, g11, cy), cx) * SCALE_FACTOR_2D;
+        result.clamp(-1.0, 1.0)
+    }
+
+    /// Value (as [`Perlin2::get`], bit for bit) and gradient at `q` (noise
+    /// units), from the same four corner terms.
+    #[inline]
+    pub(super) fn get_grad(&self, q: [f64; 2]) -> (f64, [f64; 2]) {
+        let c = [lattice(q[0]), lattice(q[1])];
+        let d = [q[0] - c[0] as f64, q[1] - c[1] as f64];
+        // Per corner `ox + 2 oy`: the gradient vector and its term.
+        let corner = |ox: isize, oy: isize| {
+            let p = [d[0] - ox as f64, d[1] - oy as f64];
+            let k = GRADS_2D[self.hash(c[0] + ox, c[1] + oy) & 0b11];
+            (k, k[0] * p[0] + k[1] * p[1])
+        };
+        let ((k00, g00), (k10, g10)) = (corner(0, 0), corner(1, 0));
+        let ((k01, g01), (k11, g11)) = (corner(0, 1), corner(1, 1));
+        let (cx, cy) = (quintic(d[0]), quintic(d[1]));
+        let (a, b) = (linear(g00, g01, cy), linear(g10, g11, cy));
+        let result = linear(a, b, cx) * SCALE_FACTOR_2D;
+        if result.abs() > 1.0 {
+            // `perlin_2d` clamps to [-1, 1]: flat where it clamps.
+            return (result.clamp(-1.0, 1.0), [0.0, 0.0]);
+        }
+        // The quintic's slope (zero outside [0, 1], where it clamps).
+        let slope = |t: f64| {
+            let t = t.clamp(0.0, 1.0);
+            30.0 * t * t * (t - 1.0) * (t - 1.0)
+        };
+        let (sx, sy) = (slope(d[0]), slope(d[1]));
+        let dx = sx * (b - a) + linear(linear(k00[0], k01[0], cy), linear(k10[0], k11[0], cy), cx);
+        let dy = linear(
+            sy * (g01 - g00) + linear(k00[1], k01[1], cy),
+            sy * (g11 - g10) + linear(k10[1], k11[1], cy),
+            cx,
+        );
+        (result, [dx * SCALE_FACTOR_2D, dy * SCALE_FACTOR_2D])
+    }
+}
+
+/// `Fbm<Perlin>` in 2-D with persistence 0.5 and lacunarity 2 (as [`super::fbm`]
+/// builds it): its values, bit for bit, and its gradient.
+#[derive(Clone)]
+pub(super) struct Fbm2 {
+    octaves: Vec<Perlin2>,
+    frequency: f64,
+    scale: f64,
+}
+
+impl Fbm2 {
+    /// The fBm `super::fbm(seed, frequency, octaves)` computes in 2-D.
+    pub(super) fn new(seed: u32, frequency: f32, octaves: u32) -> Self {
+        Fbm2 {
+            octaves: (0..octaves)
+                .map(|i| Perlin2::new(seed.wrapping_add(i)))
+                .collect(),
+            frequency: frequency as f64,
+            scale: 1.0 / (1..=octaves).fold(0.0, |acc, x| acc + 0.5f64.powi(x as i32)),
+        }
+    }
+
+    /// The value at `q` (world units), as `Fbm::get` computes it.
+    #[inline]
+    pub(super) fn get(&self, q: [f64; 2]) -> f64 {
+        let mut point = q.map(|x| x * self.frequency);
+        let (mut result, mut attenuation) = (0.0, 0.5);
+        for octave in &self.octaves {
+            let mut signal = octave.get(point);
+            signal *= attenuation;
+            attenuation *= 0.5;
+            result += signal;
+            point = point.map(|x| x * 2.0);
+        }
+        result * self.scale
+    }
+
+    /// Value (as [`Fbm2::get`], bit for bit) and gradient at `q` (world units).
+    pub(super) fn get_grad(&self, q: [f64; 2]) -> (f64, [f64; 2]) {
+        let mut point = q.map(|x| x * self.frequency);
+        let (mut result, mut attenuation, mut f) = (0.0, 0.5, self.frequency);
+        let mut g = [0.0f64; 2];
+        for octave in &self.octaves {
+            let (mut signal, og) = octave.get_grad(point);
+            g[0] += og[0] * (attenuation * f);
+            g[1] += og[1] * (attenuation * f);
+            signal *= attenuation;
+            attenuation *= 0.5;
+            result += signal;
+            point = point.map(|x| x * 2.0);
+            f *= 2.0;
+        }
+        (result * self.scale, g.map(|x| x * self.scale))
     }
 }

@@ -2,6 +2,7 @@ use super::*;
 use crate::field::{gradient_step, FnField, GRADIENT_STEP};
 use crate::grid::Grid;
 use crate::world::layout::Rng;
+use noise::NoiseFn;
 
 /// The value at `q` computed in f64 throughout: a reference for gradients.
 fn value64(d: &Density, q: DVec3) -> f64 {
@@ -69,7 +70,7 @@ fn terrain_gradients_match_f64_differences_far_out() {
     });
     // References from the noise crate in f64, with their own step.
     let d_noise = fbm(3, 0.011, 5);
-    // (The density's gradient is analytic, the height field's by f64 differences.)
+    // (Both gradients are analytic.)
     let d_ref = |q: DVec3| q.y - 22.0 * d_noise.get(q.to_array());
     let h_ref = |q: DVec3| q.y - 22.0 * d_noise.get([q.x, q.z]);
     let h = 0.01;
@@ -352,6 +353,60 @@ fn the_fast_noise_is_the_noise_crates_bit_for_bit() {
 }
 
 #[test]
+fn the_fast_2d_noise_is_the_noise_crates_bit_for_bit_and_differentiates_it() {
+    let mut rng = Rng(17);
+    for (seed, frequency, octaves) in [(3, 0.015, 5), (7, 1.8, 4), (123_456, 0.37, 8)] {
+        let (slow, fast) = (
+            fbm(seed, frequency, octaves),
+            perlin::Fbm2::new(seed, frequency, octaves),
+        );
+        let (p_slow, p_fast) = (Perlin::new(seed), perlin::Perlin2::new(seed));
+        // A step of 1e-4 of the finest octave's lattice.
+        let h = 1e-4 / (frequency as f64 * 2f64.powi(octaves as i32 - 1));
+        for i in 0..20000 {
+            // Random points, and lattice points (integers, negative ones too).
+            let mut q = [0, 1].map(|_| (rng.unit() - 0.5) * 2000.0);
+            if i % 4 == 0 {
+                q = q.map(|x| (x * 0.01).round());
+            }
+            let (v, g) = fast.get_grad(q);
+            assert_eq!(slow.get(q).to_bits(), fast.get(q).to_bits(), "fbm at {q:?}");
+            assert_eq!(slow.get(q).to_bits(), v.to_bits(), "fbm value at {q:?}");
+            let (pv, _) = p_fast.get_grad(q);
+            assert_eq!(
+                p_slow.get(q).to_bits(),
+                p_fast.get(q).to_bits(),
+                "perlin at {q:?}"
+            );
+            assert_eq!(
+                p_slow.get(q).to_bits(),
+                pv.to_bits(),
+                "perlin value at {q:?}"
+            );
+            // The gradient against f64 central differences of the crate's fBm
+            // (away from lattice lines, where the noise is only C2 and the
+            // differences straddle nothing).
+            if i % 4 != 0 {
+                let r = [0, 1].map(|a| {
+                    let (mut q0, mut q1) = (q, q);
+                    q0[a] -= h;
+                    q1[a] += h;
+                    (slow.get(q1) - slow.get(q0)) / (2.0 * h)
+                });
+                let (err, len) = (
+                    ((g[0] - r[0]).powi(2) + (g[1] - r[1]).powi(2)).sqrt(),
+                    (r[0] * r[0] + r[1] * r[1]).sqrt(),
+                );
+                assert!(
+                    err < 1e-5 * len.max(frequency as f64),
+                    "gradient at {q:?}: {g:?} against {r:?}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
 fn the_row_noise_is_the_point_noise_bit_for_bit() {
     let mut rng = Rng(44);
     for seed in [0, 7, 99_999] {
@@ -456,4 +511,58 @@ fn batched_sampling_is_the_value_bit_for_bit() {
     let mut out = vec![0f32; 27];
     d.sample_grid(&grid, 0..3, &mut out);
     assert!(out.iter().all(|v| v.is_nan()));
+}
+
+#[test]
+fn materials_from_a_known_gradient_are_the_fields_materials() {
+    use crate::edit::{Brush, BrushOp, EditedField};
+    use crate::field::Field;
+    let density: std::sync::Arc<dyn Field> =
+        std::sync::Arc::new(Density::new(DensityParams::demo(7)));
+    let height = Heightfield::new(HeightfieldParams {
+        seed: 3,
+        base: 0.0,
+        amplitude: 10.0,
+        frequency: 0.015,
+        octaves: 5,
+    });
+    // An edited field: unedited, and with a brush that paints a region.
+    let edited = EditedField::new(density.clone());
+    let brush = Brush::sphere(Vec3::new(5.0, 0.0, 5.0), 6.0, BrushOp::Add).with_material(2);
+    let dug = edited.with_edit(brush).unwrap();
+    let mut rng = Rng(5);
+    let (mut caves, mut brushed) = (0, 0);
+    for _ in 0..4000 {
+        let p = point_in(
+            &mut rng,
+            Vec3::new(-40.0, -30.0, -40.0),
+            Vec3::new(40.0, 25.0, 40.0),
+        );
+        let fields: [(&str, &dyn Field); 4] = [
+            ("density", &*density),
+            ("height field", &height),
+            ("unedited", &edited),
+            ("edited", &dug),
+        ];
+        for (name, f) in fields {
+            let (a, b) = (f.material(p), f.material_with_gradient(p, f.gradient(p)));
+            assert_eq!(a.ids, b.ids, "{name} at {p}");
+            for (x, y) in a.weights.iter().zip(&b.weights) {
+                assert!((x - y).abs() < 1e-4, "{name} at {p}: {a:?} against {b:?}");
+            }
+        }
+        let d = Density::new(DensityParams::demo(7));
+        let (g, cave) = d.gradient_and_cave(p);
+        assert_eq!(
+            g.to_array().map(f32::to_bits),
+            d.gradient(p).to_array().map(f32::to_bits)
+        );
+        assert!((cave - d.cave_weight(p)).abs() < 1e-4, "cave weight at {p}");
+        caves += (cave > 0.0) as usize;
+        brushed += (dug.material(p) != edited.material(p)) as usize;
+    }
+    assert!(
+        caves > 10 && brushed > 10,
+        "{caves} points in cave walls, {brushed} brushed"
+    );
 }
