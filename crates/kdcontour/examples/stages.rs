@@ -5,6 +5,8 @@
 //!
 //! `cargo run --release -p kdcontour --example stages -- disk_pole 128 [reps] [threads]`
 //! `cargo run --release -p kdcontour --example stages -- chunk 32 50`
+//! The scene `demo` is a chunk of the terrain demo's field (3-D noise with
+//! overhangs and caves, [`scenes::demo_chunk`]).
 
 use kdcontour::pipeline::{self, Cells};
 use kdcontour::{hermite, scenes, Field, Grid, IndexedMesh, Settings};
@@ -28,6 +30,9 @@ fn main() {
         .unwrap_or(1);
     let (field, grid): (Box<dyn Field>, Grid) = if name == "chunk" {
         let (field, grid) = scenes::terrain_chunk(res);
+        (Box::new(field), grid)
+    } else if name == "demo" {
+        let (field, grid) = scenes::demo_chunk(res);
         (Box::new(field), grid)
     } else {
         let scene = scenes::scene(&name).unwrap_or_else(|e| panic!("{e}"));

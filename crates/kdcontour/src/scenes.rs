@@ -207,3 +207,18 @@ pub fn terrain_chunk(res: u32) -> (crate::field::terrain::Heightfield, crate::Gr
     };
     (field, grid)
 }
+
+/// A chunk of the terrain demo's field (`DensityParams::demo(7)`, the field the
+/// Bevy plugin's horizon benchmark flies over): `res`³ cells of 1 world unit from
+/// `(0, -res / 2, 0)`, through hills, an overhang and a cave mouth.
+pub fn demo_chunk(res: u32) -> (crate::field::terrain::Density, crate::Grid) {
+    use crate::field::terrain::{Density, DensityParams};
+    let field = Density::new(DensityParams::demo(7));
+    let grid = crate::Grid {
+        origin: Vec3::new(0.0, -(res as f32) / 2.0, 0.0),
+        cell_size: 1.0,
+        cells: glam::UVec3::splat(res),
+        offset: glam::IVec3::ZERO,
+    };
+    (field, grid)
+}

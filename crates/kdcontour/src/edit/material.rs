@@ -11,6 +11,9 @@ impl EditedField {
     /// The base's material at `p`, then each brush's in order (see the module
     /// docs); the values are followed exactly as [`Field::value`] computes them.
     pub(super) fn material_at(&self, p: Vec3) -> MaterialBlend {
+        if self.edits.is_empty() {
+            return self.base.material(p);
+        }
         let mut v = self.base.value(p);
         let mut m = self.base.material(p);
         for e in self.edits.iter() {

@@ -249,6 +249,9 @@ impl Field for EditedField {
     /// The base field's own gradient where no brush is active (analytic where the
     /// base has one), the active brush's where one is.
     fn gradient(&self, p: Vec3) -> Vec3 {
+        if self.edits.is_empty() {
+            return self.base.gradient(p);
+        }
         let mut v = self.base.value(p);
         let mut g = None; // None: still the base's
         for e in self.edits.iter() {
@@ -292,6 +295,19 @@ impl Field for EditedField {
     }
 
     fn material(&self, p: Vec3) -> crate::material::MaterialBlend {
+        self.material_at(p)
+    }
+
+    /// The base's, with the gradient, where no brush reaches `p` (the gradient
+    /// is the base's there); [`EditedField::material_at`] elsewhere.
+    fn material_with_gradient(&self, p: Vec3, gradient: Vec3) -> crate::material::MaterialBlend {
+        if self.edits.is_empty() {
+            return self.base.material_with_gradient(p, gradient);
+        }
+        let v = self.base.value(p);
+        if self.edits.iter().all(|e| !Self::affects(e, p, v)) {
+            return self.base.material_with_gradient(p, gradient);
+        }
         self.material_at(p)
     }
 

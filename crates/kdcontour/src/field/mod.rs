@@ -101,6 +101,15 @@ pub trait Field: Send + Sync {
         MaterialBlend::single(0)
     }
 
+    /// [`Field::material`] at `p`, where the caller has the field's gradient
+    /// ([`Field::gradient`] at `p`): fields whose material rule reads the
+    /// gradient use it instead of computing it again, and give the same
+    /// material to rounding. By default [`Field::material`].
+    fn material_with_gradient(&self, p: Vec3, gradient: Vec3) -> MaterialBlend {
+        let _ = gradient;
+        self.material(p)
+    }
+
     /// Whether the field has materials: meshes then carry one blend per vertex
     /// and the tree keeps material borders crisp. `false` by default.
     fn has_materials(&self) -> bool {
@@ -167,6 +176,9 @@ macro_rules! forward_field {
             fn material(&self, p: Vec3) -> MaterialBlend {
                 (**self).material(p)
             }
+            fn material_with_gradient(&self, p: Vec3, gradient: Vec3) -> MaterialBlend {
+                (**self).material_with_gradient(p, gradient)
+            }
             fn has_materials(&self) -> bool {
                 (**self).has_materials()
             }
@@ -210,6 +222,9 @@ impl Field for IsoShift {
     }
     fn material(&self, p: Vec3) -> MaterialBlend {
         self.inner.material(p)
+    }
+    fn material_with_gradient(&self, p: Vec3, gradient: Vec3) -> MaterialBlend {
+        self.inner.material_with_gradient(p, gradient)
     }
     fn has_materials(&self) -> bool {
         self.inner.has_materials()

@@ -115,7 +115,7 @@ pub(super) fn crossings(
                     };
                     // Only a pure material counts toward a border (see
                     // [`material::PURE`]).
-                    let material = match borders.then(|| field.material(wp)) {
+                    let material = match borders.then(|| field.material_with_gradient(wp, grad)) {
                         Some(m) if m.weights[0] >= material::PURE => m.dominant() as u16,
                         _ => material::UNSET,
                     };
