@@ -31,7 +31,7 @@ pub(crate) struct Tolerance {
     pub area: f64,
 }
 
-fn unit_normal(t: &[DVec3; 3]) -> Option<DVec3> {
+pub(crate) fn unit_normal(t: &[DVec3; 3]) -> Option<DVec3> {
     let n = (t[1] - t[0]).cross(t[2] - t[0]);
     let l = n.length();
     (l > 0.0 && l.is_finite()).then(|| n / l)
@@ -118,7 +118,19 @@ fn overlap_area(a: &[DVec3; 3], b: &[DVec3; 3], n: DVec3) -> f64 {
 /// How triangles `a` and `b` meet. Triangles of zero area meet nothing (they are
 /// counted elsewhere).
 pub(crate) fn contact(a: &[DVec3; 3], b: &[DVec3; 3], tol: Tolerance) -> Contact {
-    let (Some(na), Some(nb)) = (unit_normal(a), unit_normal(b)) else {
+    contact_with_normals(a, unit_normal(a), b, unit_normal(b), tol)
+}
+
+/// [`contact`] of `a` and `b` whose unit normals ([`unit_normal`]) the caller
+/// has: a triangle tested against many others finds its normal once.
+pub(crate) fn contact_with_normals(
+    a: &[DVec3; 3],
+    na: Option<DVec3>,
+    b: &[DVec3; 3],
+    nb: Option<DVec3>,
+    tol: Tolerance,
+) -> Contact {
+    let (Some(na), Some(nb)) = (na, nb) else {
         return Contact::None;
     };
     let da = plane_distances(a, nb, b[0], tol.length);

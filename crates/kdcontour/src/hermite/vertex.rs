@@ -37,7 +37,7 @@ use super::ActiveCell;
 use crate::cell::CellTables;
 use crate::comp::Comp;
 use crate::facing::Facing;
-use crate::geometry::tritri::{contact, Contact, Tolerance};
+use crate::geometry::tritri::{contact_with_normals, unit_normal, Contact, Tolerance};
 use crate::qef::Qef;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -125,10 +125,7 @@ pub(super) fn cell_vertices(
         let around = around.get_or_insert_with(|| Around::new(quads, &cell_of, cells));
         let crossing: Vec<bool> = moving
             .par_iter()
-            .map(|&p| {
-                let after = around.crossings(p, quads, &rounded);
-                after > 0 && after > around.crossings(p, quads, &prev)
-            })
+            .map(|&p| around.crosses_more(p, quads, &rounded, &prev))
             .collect();
         for (&p, cross) in moving.iter().zip(crossing) {
             let p = p as usize;
@@ -152,6 +149,13 @@ fn quad_faces(q: &DualQuad, vertex: &[Vec3], unit: &[Vec3], facing: &Facing) -> 
     facing.polygon(&corners, q.facing, |t| {
         crate::geometry::face_normal(t).dot(q.normal.as_dvec3()) >= 0.0
     })
+}
+
+thread_local! {
+    /// [`Around::crossings`]' triangles of the quads near a patch, with their
+    /// quad (reused from patch to patch on each thread).
+    static NEAR: std::cell::RefCell<Vec<(u32, Placed)>> =
+        const { std::cell::RefCell::new(Vec::new()) };
 }
 
 /// The quads around each patch (built once a quad folds).
@@ -203,14 +207,11 @@ impl Around {
         &self.quads[self.start[p as usize] as usize..self.start[p as usize + 1] as usize]
     }
 
-    /// How many pairs of triangles cross, one of a quad around patch `p` and one
-    /// of a quad sharing a patch with it (both diagonals of every quad: the one
-    /// the mesh takes depends on the normals it rounds), at `vertex`.
-    fn crossings(&self, p: u32, quads: &[DualQuad], vertex: &[Vec3]) -> usize {
-        let tol = Tolerance {
-            length: crate::geometry::INTERSECTION_TOL_CELLS,
-            area: crate::geometry::ZERO_AREA_CELLS2,
-        };
+    /// Whether more pairs of triangles cross at `after` than at `before` (and
+    /// any do), one of a quad around patch `p` and one of a quad sharing a
+    /// patch with it (both diagonals of every quad: the one the mesh takes
+    /// depends on the normals it rounds).
+    fn crosses_more(&self, p: u32, quads: &[DualQuad], after: &[Vec3], before: &[Vec3]) -> bool {
         // The quads of every patch of the cells of the quads around `p` (a cell's
         // other patches are other sheets through it).
         let mut near: Vec<u32> = Vec::new();
@@ -223,30 +224,68 @@ impl Around {
         }
         near.sort_unstable();
         near.dedup();
+        let n = self.crossings(p, quads, &near, after);
+        n > 0 && n > self.crossings(p, quads, &near, before)
+    }
+
+    /// How many pairs of triangles cross at `vertex`, one of a quad around `p`
+    /// and one of the quads `near`.
+    fn crossings(&self, p: u32, quads: &[DualQuad], near: &[u32], vertex: &[Vec3]) -> usize {
         let tris = |q: u32| {
             let v = quads[q as usize]
                 .patches
                 .map(|i| vertex[i as usize].as_dvec3());
-            [[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]].map(|t| t.map(|k| v[k]))
+            [[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]].map(|t| Placed::new(t.map(|k| v[k])))
         };
-        let bounds = |t: &[DVec3; 3]| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
-        let mut n = 0;
-        for &q in self.of(p) {
-            for a in tris(q) {
-                let (alo, ahi) = bounds(&a);
-                for &r in near.iter().filter(|&&r| r != q) {
-                    for b in tris(r) {
-                        let (blo, bhi) = bounds(&b);
-                        if alo.cmpgt(bhi).any() || blo.cmpgt(ahi).any() {
-                            continue;
-                        }
-                        if let Contact::Cross { .. } = contact(&a, &b, tol) {
-                            n += 1;
-                        }
-                    }
+        // The near quads' triangles, made once (each is tested against every
+        // triangle of the quads around `p`).
+        NEAR.with_borrow_mut(|near_tris| {
+            near_tris.clear();
+            near_tris.extend(near.iter().flat_map(|&r| tris(r).map(|t| (r, t))));
+            let mut n = 0;
+            for &q in self.of(p) {
+                for a in tris(q) {
+                    n += near_tris
+                        .iter()
+                        .filter(|(r, b)| *r != q && a.crosses(b))
+                        .count();
                 }
             }
+            n
+        })
+    }
+}
+
+/// A triangle with its unit normal and bounding box.
+struct Placed {
+    corners: [DVec3; 3],
+    normal: Option<DVec3>,
+    lo: DVec3,
+    hi: DVec3,
+}
+
+impl Placed {
+    fn new(t: [DVec3; 3]) -> Self {
+        Placed {
+            corners: t,
+            normal: unit_normal(&t),
+            lo: t[0].min(t[1]).min(t[2]),
+            hi: t[0].max(t[1]).max(t[2]),
         }
-        n
+    }
+
+    /// Whether the interiors cross ([`Contact::Cross`]).
+    fn crosses(&self, o: &Placed) -> bool {
+        if self.lo.cmpgt(o.hi).any() || o.lo.cmpgt(self.hi).any() {
+            return false;
+        }
+        let tol = Tolerance {
+            length: crate::geometry::INTERSECTION_TOL_CELLS,
+            area: crate::geometry::ZERO_AREA_CELLS2,
+        };
+        matches!(
+            contact_with_normals(&self.corners, self.normal, &o.corners, o.normal, tol),
+            Contact::Cross { .. }
+        )
     }
 }
