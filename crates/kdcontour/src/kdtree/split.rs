@@ -50,6 +50,12 @@ pub(super) fn kd_split(
     // Axis: the largest per-dimension error E2 at the minimiser; among equals (a flat
     // patch has E2 = 0 everywhere) the longest side. Skip axes one cell thick.
     let x = total.fast_minimizer();
+    // `E1` of the whole: `fast_min_error`, from the minimiser already found.
+    let e1 = if total.count <= 0.0 {
+        0.0
+    } else {
+        total.error_at(x)
+    };
     let e2 = total.error_per_axis(x);
     let e2 = [e2.x, e2.y, e2.z];
     let scale = e2[0] + e2[1] + e2[2];
@@ -78,7 +84,7 @@ pub(super) fn kd_split(
     // search: one sum over the left cells instead of three slab passes and the
     // probes. On `disk_pole` and the boxed terrain, a third of the summation work
     // is in such nodes (box faces, the disk).
-    if total.fast_min_error() <= FLAT_E1 {
+    if e1 <= FLAT_E1 {
         let axis = *order
             .iter()
             .find(|&&a| ext[a] > 1)
@@ -140,7 +146,7 @@ pub(super) fn kd_split(
     for &axis in order.iter().filter(|&&a| ext[a] > 1) {
         let occ = (occ_lo[axis] as usize, occ_hi[axis] as usize);
         let pre = &scratch[start[axis]..=start[axis] + span[axis]];
-        let (split, l, r, score) = split_on_axis(pre, min, ext, axis, occ, &total);
+        let (split, l, r, score) = split_on_axis(pre, min, ext, axis, occ, &total, e1);
         if best
             .as_ref()
             .is_none_or(|b| score < b.0 * (1.0 - 1e-9) - 1e-12)
@@ -170,7 +176,7 @@ fn occupied_mid(occ_lo: usize, occ_hi: usize, len: usize) -> usize {
 
 /// The plane along `axis` that gives both halves equal `E1`, the halves' QEFs and
 /// the sum of their `E1`. `occ` is the range of slabs (relative to `min`) that hold
-/// cells and `pre` the prefix sums of their QEFs.
+/// cells, `pre` the prefix sums of their QEFs and `total_e1` the whole's `E1`.
 ///
 /// A split at `s` has the cells of slabs below `s` on its left, so its left QEF is
 /// zero for `s <= occ_lo` and the whole sum for `s > occ_hi` (those positions cost
@@ -182,6 +188,7 @@ fn split_on_axis(
     axis: usize,
     occ: (usize, usize),
     total: &Qef,
+    total_e1: f64,
 ) -> (u16, Qef, Qef, f64) {
     let total = *total;
     let len = ext[axis] as usize;
@@ -229,7 +236,7 @@ fn split_on_axis(
     // equal within tolerance (flat surface: every E1 is zero), take the one nearest
     // the middle of the slabs that hold cells, so neither side is empty unless all
     // cells share one slab (then the split cuts the empty rest off in one step).
-    let tol = 1e-9 + 1e-6 * total.fast_min_error();
+    let tol = 1e-9 + 1e-6 * total_e1;
     let first = |diff: &mut dyn FnMut(usize) -> f64, pred: &dyn Fn(f64) -> bool, from: usize| {
         let (mut lo, mut hi) = (from, len);
         while lo < hi {
