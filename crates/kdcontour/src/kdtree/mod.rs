@@ -101,8 +101,9 @@ pub struct KdTree {
     /// How the build went.
     pub(crate) stats: BuildStats,
     /// Per component, when the field has materials: the material at its vertex
-    /// (painted by the pipeline, [`crate::pipeline::tree`]); empty otherwise. Contouring gives each
-    /// vertex its component's.
+    /// for every component some threshold makes a leaf (painted by the
+    /// pipeline, [`crate::pipeline::tree`]), the default blend for the others;
+    /// empty otherwise. Contouring gives each vertex its component's.
     pub(crate) materials: Vec<crate::material::MaterialBlend>,
 }
 
@@ -145,8 +146,9 @@ impl KdTree {
         self.stats
     }
 
-    /// Per component, when the field has materials: the material at its vertex;
-    /// empty otherwise.
+    /// Per component, when the field has materials: the material at its vertex
+    /// for every component some threshold makes a leaf (the default blend for
+    /// components no threshold reaches); empty otherwise.
     pub fn materials(&self) -> &[crate::material::MaterialBlend] {
         &self.materials
     }
