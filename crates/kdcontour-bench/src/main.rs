@@ -5,7 +5,9 @@
 //! `kdcontour` like ours; its time is sample + Hermite data + meshing, its box size
 //! limit the one `--threshold` picks.
 //!
-//! Every mesher meshes the scene over `[-1, 1]^3` at `res` cells per axis. The
+//! Every mesher meshes the scene over `[-1, 1]^3` at `res` cells per axis (the
+//! scene `chunk` is the Bevy plugin's terrain chunk instead: the terrain demo's
+//! field, with materials, over `res`^3 cells of one world unit). The
 //! uniform peers (fast-surface-nets, isosurface's Marching Cubes, transvoxel, and
 //! Marching Cubes + meshoptimizer) mesh the same densely sampled grid; their time
 //! is that sampling plus their meshing. Ours (`kdtree`, `kdtree-full`, `octree`)
@@ -21,7 +23,7 @@
 //! (`kdcontour::validate`).
 //!
 //! ```text
-//! cargo run --release -p kdcontour-bench -- [--json] [--scenes sphere,disk_pole,terrain] [--res 32,64,128]
+//! cargo run --release -p kdcontour-bench -- [--json] [--scenes sphere,disk_pole,terrain,chunk] [--res 32,64,128]
 //! ```
 
 use clap::Parser;
@@ -41,11 +43,11 @@ struct Args {
     /// One JSON line per scene, resolution and mesher instead of tables.
     #[arg(long)]
     json: bool,
-    /// Scenes (built-in names).
+    /// Scenes (built-in names, and `chunk`: the Bevy plugin's terrain chunk).
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "sphere,disk_pole,terrain"
+        default_value = "sphere,disk_pole,terrain,chunk"
     )]
     scenes: Vec<String>,
     /// Cells per axis.
@@ -298,10 +300,21 @@ fn build_then<T: Send>(
         .map_err(|e| e.to_string())
 }
 
-fn run(args: &Args, scene_name: &str, res: u32) -> Result<Vec<Row>, String> {
+/// The field and grid of a scene: a built-in scene over `[-1, 1]^3`, or
+/// `chunk`, the Bevy plugin's terrain chunk (the terrain demo's field, 3-D noise
+/// with caves and materials, over `res`^3 cells of one world unit).
+fn scene_grid(scene_name: &str, res: u32) -> Result<(Box<dyn Field>, Grid), String> {
+    if scene_name == "chunk" {
+        let (field, grid) = scenes::demo_chunk(res);
+        return Ok((Box::new(field), grid));
+    }
     let scene = scenes::scene(scene_name).map_err(|e| e.to_string())?;
-    let field = &*scene.field;
-    let grid = Grid::cube(1.0, res);
+    Ok((scene.field, Grid::cube(1.0, res)))
+}
+
+fn run(args: &Args, scene_name: &str, res: u32) -> Result<Vec<Row>, String> {
+    let (field, grid) = scene_grid(scene_name, res)?;
+    let field = &*field;
     let cell = grid.cell_size;
     let settings = Settings {
         threads: args.threads,
