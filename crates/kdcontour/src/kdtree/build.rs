@@ -10,7 +10,7 @@
 use super::arena::{Arena, Ctx, NO_EDGE};
 use super::cluster::cluster;
 use super::fold::refuse_folding_leaves;
-use super::split::kd_split;
+use super::split::{empty_cut, kd_split, EMPTY_CUT_CELLS};
 use super::{Comp, KdNode, KdTree, CELL, NONE};
 use crate::boundary::open_faces;
 use crate::cell::{edge_corners, CellTables};
@@ -135,7 +135,13 @@ fn build_node(
     // a cell thick: it may not be a leaf (its mesh would stop short of the
     // boundary cells'), and the k-d tree splits the boundary slab off first.
     let thick = thick_open_faces(ctx, ids, min, max);
+    // A small node whose cells leave part of its box empty cuts the largest
+    // empty slab off first (module `split`).
+    let empty = (ctx.partition == Partition::KdTree && thick == 0 && ids.len() <= EMPTY_CUT_CELLS)
+        .then(|| empty_cut(ctx, ids, min, max, &total))
+        .flatten();
     let (axis, split, ltotal, rtotal) = match ctx.partition {
+        _ if empty.is_some() => empty.expect("just tested"),
         Partition::KdTree if thick != 0 => slab_split(ctx, ids, min, max, thick),
         Partition::KdTree => kd_split(ctx, ids, min, max, &total),
         Partition::Octree => {

@@ -10,6 +10,14 @@
 //! proportional to the surface rather than the volume (a 3-D summed-area table at
 //! res 128 would hold 2.1 M QEFs, 340 MB), and each child's total QEF comes for free
 //! from the prefix.
+//!
+//! Empty space first: a node of at most [`EMPTY_CUT_CELLS`] cells whose cells
+//! leave a slab of its box empty is split at the face of that slab (the
+//! largest one), before any search ([`empty_cut`]). The equal-`E1` search
+//! cuts such slabs off too, but only once a node's cells share one plane
+//! position, one cut per node and often two per cell: a height field's
+//! columns of one or two cells, cut from 32 cells tall down to one, made a
+//! third of the plugin's terrain chunk's nodes.
 
 use super::arena::Ctx;
 use crate::qef::Qef;
@@ -273,4 +281,54 @@ fn split_on_axis(
     let mut rtotal = total;
     rtotal -= &ltotal;
     (split, ltotal, rtotal, el + er)
+}
+
+/// The most cells a node may have for [`empty_cut`] to apply. Measured over
+/// the built-in scenes at res 32, 64 and 128 and thresholds 0.001 to 1 (node
+/// count, worst triangle count against the search alone): 8 cells, 7.8% fewer
+/// nodes and at most 1.9% more triangles (the rotated box at 64, whose other
+/// resolutions lose up to 2.3%); every node, 10.3% fewer nodes but the box at
+/// 64 7.5% more triangles (its flat faces' nodes take other shapes); 2 cells,
+/// 3.0% and 0.5%.
+pub(super) const EMPTY_CUT_CELLS: usize = 8;
+
+/// The cut that takes the largest empty slab (by volume) off the box
+/// `min..max` whose cells `ids` leave it, and the halves' QEFs (the empty
+/// half's is zero); `None` when the cells reach every side of the box.
+pub(super) fn empty_cut(
+    ctx: &Ctx,
+    ids: &[u32],
+    min: [u16; 3],
+    max: [u16; 3],
+    total: &Qef,
+) -> Option<(usize, u16, Qef, Qef)> {
+    // The cells' bounding box.
+    let (mut lo, mut hi) = (max, min);
+    for &id in ids {
+        let c = ctx.h.cells[id as usize].coord;
+        for a in 0..3 {
+            lo[a] = lo[a].min(c[a]);
+            hi[a] = hi[a].max(c[a] + 1);
+        }
+    }
+    let ext = [0, 1, 2].map(|a| (max[a] - min[a]) as u64);
+    // (empty volume, axis, plane, whether the empty slab is below the plane)
+    let mut best: Option<(u64, usize, u16, bool)> = None;
+    for a in 0..3 {
+        let area = ext[(a + 1) % 3] * ext[(a + 2) % 3];
+        for (gap, at, below) in [
+            ((lo[a] - min[a]) as u64, lo[a], true),
+            ((max[a] - hi[a]) as u64, hi[a], false),
+        ] {
+            if gap > 0 && best.is_none_or(|b| gap * area > b.0) {
+                best = Some((gap * area, a, at, below));
+            }
+        }
+    }
+    let (_, axis, split, below) = best?;
+    Some(if below {
+        (axis, split, Qef::ZERO, *total)
+    } else {
+        (axis, split, *total, Qef::ZERO)
+    })
 }
