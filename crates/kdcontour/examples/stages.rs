@@ -1,7 +1,10 @@
 //! Times each build stage (best of `reps`, on `threads` threads, default 1) and
 //! prints the tree's size.
 //! The scene `chunk` is the streaming-terrain chunk of the Bevy plugin: 32³ cells
-//! of 1 m over a 5-octave fBm height field.
+//! of 1 m over a 5-octave fBm height field, built as a world builds a chunk (its
+//! grid has a cell of halo all round, sampled and given Hermite data; the tree
+//! and the mesh are the 32³ core's). `chunk-box` is the same cells meshed as a
+//! box of their own (no halo; the surface leaves through its sides).
 //!
 //! `cargo run --release -p kdcontour --example stages -- disk_pole 128 [reps] [threads]`
 //! `cargo run --release -p kdcontour --example stages -- chunk 32 50`
@@ -28,7 +31,7 @@ fn main() {
         .next()
         .map(|s| s.parse().expect("threads is a number"))
         .unwrap_or(1);
-    let (field, grid): (Box<dyn Field>, Grid) = if name == "chunk" {
+    let (field, grid): (Box<dyn Field>, Grid) = if name == "chunk" || name == "chunk-box" {
         let (field, grid) = scenes::terrain_chunk(res);
         (Box::new(field), grid)
     } else if name == "demo" {
@@ -37,6 +40,17 @@ fn main() {
     } else {
         let scene = scenes::scene(&name).unwrap_or_else(|e| panic!("{e}"));
         (scene.field, Grid::cube(1.0, res))
+    };
+    // A world's chunk: the grid grown by a cell of halo, the tree over the core.
+    let (grid, cells) = if name == "chunk" || name == "demo" {
+        let halo = Grid {
+            cells: grid.cells + 2,
+            offset: grid.offset - glam::IVec3::ONE,
+            ..grid
+        };
+        (halo, Cells::Core(res))
+    } else {
+        (grid, Cells::All)
     };
     let settings = Settings {
         threads,
@@ -54,7 +68,7 @@ fn main() {
                 let t1 = Instant::now();
                 let h = hermite::Hermite::new(&*field, &grid, &values, &settings).unwrap();
                 let t2 = Instant::now();
-                let tree = pipeline::tree(&h, &*field, &settings, Cells::All);
+                let tree = pipeline::tree(&h, &*field, &settings, cells);
                 let t3 = Instant::now();
                 tree.extract(0.01, &mut mesh);
                 let t4 = Instant::now();
