@@ -101,6 +101,8 @@ pub(super) fn cell_vertices(
     let mut step = vec![0u8; qef.len()];
     let minimiser = vertex.clone();
     let mut around: Option<Around> = None;
+    // Per quad, its place in a round's placed triangles (`u32::MAX`: none).
+    let mut slot = vec![u32::MAX; quads.len()];
     for _ in 0..MAX_ROUNDS {
         let mut moving: Vec<u32> = quads
             .par_iter()
@@ -123,10 +125,32 @@ pub(super) fn cell_vertices(
             rounded[p] = stored(place(p, step[p]), p);
         }
         let around = around.get_or_insert_with(|| Around::new(quads, &cell_of, cells));
+        // Each moving patch's near quads, and every quad's triangles that a
+        // count reads placed once (a quad is near many moving patches).
+        let near: Vec<Vec<u32>> = moving.par_iter().map(|&p| around.near(p, quads)).collect();
+        let mut used: Vec<u32> = near.iter().flatten().copied().collect();
+        used.sort_unstable();
+        used.dedup();
+        for (i, &q) in used.iter().enumerate() {
+            slot[q as usize] = i as u32;
+        }
+        let placed = |vertex: &[Vec3]| -> Vec<[Placed; 4]> {
+            used.par_iter()
+                .map(|&q| place_quad(&quads[q as usize], vertex))
+                .collect()
+        };
+        let (after, before) = (placed(&rounded), placed(&prev));
         let crossing: Vec<bool> = moving
             .par_iter()
-            .map(|&p| around.crosses_more(p, quads, &rounded, &prev))
+            .zip(&near)
+            .map(|(&p, near)| {
+                let n = around.crossings(p, near, &after, &slot);
+                n > 0 && n > around.crossings(p, near, &before, &slot)
+            })
             .collect();
+        for &q in &used {
+            slot[q as usize] = u32::MAX;
+        }
         for (&p, cross) in moving.iter().zip(crossing) {
             let p = p as usize;
             if cross {
@@ -149,13 +173,6 @@ fn quad_faces(q: &DualQuad, vertex: &[Vec3], unit: &[Vec3], facing: &Facing) -> 
     facing.polygon(&corners, q.facing, |t| {
         crate::geometry::face_normal(t).dot(q.normal.as_dvec3()) >= 0.0
     })
-}
-
-thread_local! {
-    /// [`Around::crossings`]' triangles of the quads near a patch, with their
-    /// quad (reused from patch to patch on each thread).
-    static NEAR: std::cell::RefCell<Vec<(u32, Placed)>> =
-        const { std::cell::RefCell::new(Vec::new()) };
 }
 
 /// The quads around each patch (built once a quad folds).
@@ -207,13 +224,9 @@ impl Around {
         &self.quads[self.start[p as usize] as usize..self.start[p as usize + 1] as usize]
     }
 
-    /// Whether more pairs of triangles cross at `after` than at `before` (and
-    /// any do), one of a quad around patch `p` and one of a quad sharing a
-    /// patch with it (both diagonals of every quad: the one the mesh takes
-    /// depends on the normals it rounds).
-    fn crosses_more(&self, p: u32, quads: &[DualQuad], after: &[Vec3], before: &[Vec3]) -> bool {
-        // The quads of every patch of the cells of the quads around `p` (a cell's
-        // other patches are other sheets through it).
+    /// The quads of every patch of the cells of the quads around patch `p` (a
+    /// cell's other patches are other sheets through it), `p`'s own among them.
+    fn near(&self, p: u32, quads: &[DualQuad]) -> Vec<u32> {
         let mut near: Vec<u32> = Vec::new();
         for &q in self.of(p) {
             for r in quads[q as usize].patches {
@@ -224,40 +237,42 @@ impl Around {
         }
         near.sort_unstable();
         near.dedup();
-        let n = self.crossings(p, quads, &near, after);
-        n > 0 && n > self.crossings(p, quads, &near, before)
+        near
     }
 
-    /// How many pairs of triangles cross at `vertex`, one of a quad around `p`
-    /// and one of the quads `near`.
-    fn crossings(&self, p: u32, quads: &[DualQuad], near: &[u32], vertex: &[Vec3]) -> usize {
-        let tris = |q: u32| {
-            let v = quads[q as usize]
-                .patches
-                .map(|i| vertex[i as usize].as_dvec3());
-            [[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]].map(|t| Placed::new(t.map(|k| v[k])))
-        };
-        // The near quads' triangles, made once (each is tested against every
-        // triangle of the quads around `p`).
-        NEAR.with_borrow_mut(|near_tris| {
-            near_tris.clear();
-            near_tris.extend(near.iter().flat_map(|&r| tris(r).map(|t| (r, t))));
-            let mut n = 0;
-            for &q in self.of(p) {
-                for a in tris(q) {
-                    n += near_tris
+    /// How many pairs of triangles cross, one of a quad around patch `p` and
+    /// one of another quad of `near` (both diagonals of every quad: the one the
+    /// mesh takes depends on the normals it rounds), each quad's triangles
+    /// placed at `placed[slot[quad]]`.
+    fn crossings(&self, p: u32, near: &[u32], placed: &[[Placed; 4]], slot: &[u32]) -> usize {
+        let mut n = 0;
+        for &q in self.of(p) {
+            for a in &placed[slot[q as usize] as usize] {
+                for &r in near.iter().filter(|&&r| r != q) {
+                    n += placed[slot[r as usize] as usize]
                         .iter()
-                        .filter(|(r, b)| *r != q && a.crosses(b))
+                        .filter(|b| a.crosses(b))
                         .count();
                 }
             }
-            n
-        })
+        }
+        n
     }
 }
 
-/// A triangle with its unit normal and bounding box.
+/// The four triangles of `quad` (both diagonals) with its patches at `vertex`.
+fn place_quad(quad: &DualQuad, vertex: &[Vec3]) -> [Placed; 4] {
+    let v = quad.patches.map(|i| vertex[i as usize].as_dvec3());
+    [[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]].map(|t| Placed {
+        patches: t.map(|k| quad.patches[k]),
+        ..Placed::new(t.map(|k| v[k]))
+    })
+}
+
+/// A triangle with its patches, unit normal and bounding box.
 struct Placed {
+    /// The patches at its corners (`u32::MAX` where not known).
+    patches: [u32; 3],
     corners: [DVec3; 3],
     normal: Option<DVec3>,
     lo: DVec3,
@@ -267,6 +282,7 @@ struct Placed {
 impl Placed {
     fn new(t: [DVec3; 3]) -> Self {
         Placed {
+            patches: [u32::MAX; 3],
             corners: t,
             normal: unit_normal(&t),
             lo: t[0].min(t[1]).min(t[2]),
@@ -274,9 +290,19 @@ impl Placed {
         }
     }
 
-    /// Whether the interiors cross ([`Contact::Cross`]).
+    /// Whether the interiors cross ([`Contact::Cross`]). Two triangles with
+    /// two corners in common (an edge) never do: their planes meet along that
+    /// edge, which both only touch.
     fn crosses(&self, o: &Placed) -> bool {
         if self.lo.cmpgt(o.hi).any() || o.lo.cmpgt(self.hi).any() {
+            return false;
+        }
+        let shared = self
+            .patches
+            .iter()
+            .filter(|&&p| p != u32::MAX && o.patches.contains(&p))
+            .count();
+        if shared >= 2 {
             return false;
         }
         let tol = Tolerance {
