@@ -9,7 +9,8 @@
 //! `cargo run --release -p kdcontour --example stages -- disk_pole 128 [reps] [threads]`
 //! `cargo run --release -p kdcontour --example stages -- chunk 32 50`
 //! The scene `demo` is a chunk of the terrain demo's field (3-D noise with
-//! overhangs and caves, [`scenes::demo_chunk`]).
+//! overhangs and caves, [`scenes::demo_chunk`]), built as a world builds it;
+//! `demo:L` is one of chunk level `L` (cells `2^L` wide) through the surface.
 
 use kdcontour::pipeline::{self, Cells};
 use kdcontour::{hermite, scenes, Field, Grid, IndexedMesh, Settings};
@@ -34,15 +35,21 @@ fn main() {
     let (field, grid): (Box<dyn Field>, Grid) = if name == "chunk" || name == "chunk-box" {
         let (field, grid) = scenes::terrain_chunk(res);
         (Box::new(field), grid)
-    } else if name == "demo" {
-        let (field, grid) = scenes::demo_chunk(res);
+    } else if let Some(level) = name.strip_prefix("demo") {
+        // `demo:L`: a chunk of level L (cells 2^L wide), through the surface.
+        let level: u32 = level
+            .strip_prefix(':')
+            .map_or(0, |l| l.parse().expect("a level"));
+        let (field, mut grid) = scenes::demo_chunk(res);
+        grid.cell_size = (1u32 << level) as f32;
+        grid.origin.y *= grid.cell_size;
         (Box::new(field), grid)
     } else {
         let scene = scenes::scene(&name).unwrap_or_else(|e| panic!("{e}"));
         (scene.field, Grid::cube(1.0, res))
     };
     // A world's chunk: the grid grown by a cell of halo, the tree over the core.
-    let (grid, cells) = if name == "chunk" || name == "demo" {
+    let (grid, cells) = if name == "chunk" || name.starts_with("demo") {
         let halo = Grid {
             cells: grid.cells + 2,
             offset: grid.offset - glam::IVec3::ONE,
