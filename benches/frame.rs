@@ -9,11 +9,13 @@
 //!   frame (mean, p99, max), the chunks with colliders, and the main thread's
 //!   processor time of whole app updates with and without a physics step.
 //! - `horizon_4096`: the terrain demo's field seen 4,096 cells out through chunk
-//!   levels (32-cell chunks, meshing on 2 task threads), the camera flying at 50
-//!   cells a second at 60 frames a second. Before measuring it prints the chunk
-//!   count, retained bytes and the time the plugin took to build the whole view
-//!   from scratch; after, the plugin's own main-thread time per frame (mean,
-//!   99th percentile, max) over every measured frame.
+//!   levels (32-cell chunks, meshing on 2 task threads), the camera flying at
+//!   10, 25, 50 and 100 cells a second in turn, at 60 frames a second. Before
+//!   measuring it prints the chunk count, retained bytes and the time the
+//!   plugin took to build the whole view from scratch; after each speed, the
+//!   plugin's own main-thread time per frame (mean, 99th percentile, max) over
+//!   every measured frame, and how far the camera was from where the shown
+//!   levels were made for it (the lag).
 //!
 //! `cargo bench -p bevy_kdcontour --bench frame`
 
@@ -157,73 +159,80 @@ fn horizon(c: &mut Criterion) {
         stats.extractions,
         stats.extract_ms,
     );
-    // 50 cells a second at 60 frames a second, along x and a little z.
-    let step = Vec3::new(50.0, 0.0, 10.0).normalize() * (50.0 / 60.0);
-    let mut frames: Vec<f64> = Vec::new();
-    let mut cpu: Vec<f64> = Vec::new();
-    // How far (cells) the camera is from where the shown layout was made for it,
-    // and how many level changes landed.
-    let mut lag: Vec<f32> = Vec::new();
-    let mut changes = 0usize;
-    let mut shown_for = Vec3::NAN;
+    // The camera flies along x and a little z at 60 frames a second, at each
+    // speed in turn, from where the last flight left it.
     let mut g = c.benchmark_group("horizon_4096");
-    g.sample_size(20).measurement_time(Duration::from_secs(20));
-    g.bench_function("camera_flying_50_cells_per_s", |b| {
-        b.iter_custom(|n| {
-            let mut total = Duration::ZERO;
-            for _ in 0..n {
-                app.world_mut()
-                    .get_mut::<Transform>(cam)
-                    .unwrap()
-                    .translation += step;
-                let t = std::time::Instant::now();
-                let c0 = thread_cpu_ms();
-                app.update();
-                cpu.push(thread_cpu_ms() - c0);
-                total += t.elapsed();
-                let state = app.world().get::<VolumeState>(volume).unwrap();
-                if let Some((_, keep)) = state.horizon_shown() {
-                    let at = app.world().get::<Transform>(cam).unwrap().translation;
-                    // Level-0 chunks of 32 cells of 1.
-                    let made_for = keep.camera * 32.0;
-                    if made_for != shown_for {
-                        shown_for = made_for;
-                        changes += 1;
+    g.sample_size(10).measurement_time(Duration::from_secs(15));
+    for speed in HORIZON_SPEEDS {
+        let step = Vec3::new(50.0, 0.0, 10.0).normalize() * (speed / 60.0);
+        let mut frames: Vec<f64> = Vec::new();
+        let mut cpu: Vec<f64> = Vec::new();
+        // How far (cells) the camera is from where the shown layout was made
+        // for it, and how many level changes landed.
+        let mut lag: Vec<f32> = Vec::new();
+        let mut changes = 0usize;
+        let mut shown_for = Vec3::NAN;
+        g.bench_function(format!("camera_flying_{speed}_cells_per_s"), |b| {
+            b.iter_custom(|n| {
+                let mut total = Duration::ZERO;
+                for _ in 0..n {
+                    app.world_mut()
+                        .get_mut::<Transform>(cam)
+                        .unwrap()
+                        .translation += step;
+                    let t = std::time::Instant::now();
+                    let c0 = thread_cpu_ms();
+                    app.update();
+                    cpu.push(thread_cpu_ms() - c0);
+                    total += t.elapsed();
+                    let state = app.world().get::<VolumeState>(volume).unwrap();
+                    if let Some((_, keep)) = state.horizon_shown() {
+                        let at = app.world().get::<Transform>(cam).unwrap().translation;
+                        // Level-0 chunks of 32 cells of 1.
+                        let made_for = keep.camera * 32.0;
+                        if made_for != shown_for {
+                            shown_for = made_for;
+                            changes += 1;
+                        }
+                        lag.push(at.xz().distance(made_for.xz()));
                     }
-                    lag.push(at.xz().distance(made_for.xz()));
+                    frames.push(app.world().resource::<KdContourStats>().main_thread_ms);
+                    // The rest of a 60 Hz frame, so the task threads mesh as
+                    // they would in a game.
+                    std::thread::sleep(Duration::from_micros(16_667).saturating_sub(t.elapsed()));
                 }
-                frames.push(app.world().resource::<KdContourStats>().main_thread_ms);
-                // The rest of a 60 Hz frame, so the task threads mesh as they
-                // would in a game.
-                std::thread::sleep(Duration::from_micros(16_667).saturating_sub(t.elapsed()));
-            }
-            total
-        })
-    });
+                total
+            })
+        });
+        // A filter that leaves this speed out measures nothing.
+        let (Some((mean, p99, max)), Some((cpu_mean, cpu_p99, cpu_max))) =
+            (spread(&mut frames), spread(&mut cpu))
+        else {
+            continue;
+        };
+        println!(
+            "horizon_4096 at {speed} cells/s: plugin main thread per frame over {} frames: \
+             mean {mean:.3} ms, p99 {p99:.3} ms, max {max:.3} ms",
+            frames.len(),
+        );
+        lag.sort_by(f32::total_cmp);
+        println!(
+            "horizon_4096 at {speed} cells/s: {changes} level changes shown; the camera is \
+             {:.0} cells (mean), {:.0} (max) along x and z from where the shown layout was \
+             made for it",
+            lag.iter().sum::<f32>() / lag.len().max(1) as f32,
+            lag.last().copied().unwrap_or(0.0)
+        );
+        println!(
+            "horizon_4096 at {speed} cells/s: whole app update, main thread processor time \
+             per frame: mean {cpu_mean:.3} ms, p99 {cpu_p99:.3} ms, max {cpu_max:.3} ms",
+        );
+    }
     g.finish();
-    // A filter that leaves the group out measures nothing.
-    let (Some((mean, p99, max)), Some((cpu_mean, cpu_p99, cpu_max))) =
-        (spread(&mut frames), spread(&mut cpu))
-    else {
-        return;
-    };
-    println!(
-        "horizon_4096: plugin main thread per frame over {} frames: mean {mean:.3} ms, \
-         p99 {p99:.3} ms, max {max:.3} ms",
-        frames.len(),
-    );
-    lag.sort_by(f32::total_cmp);
-    println!(
-        "horizon_4096: {changes} level changes shown; the camera is {:.0} cells (mean), \
-         {:.0} (max) along x and z from where the shown layout was made for it",
-        lag.iter().sum::<f32>() / lag.len().max(1) as f32,
-        lag.last().copied().unwrap_or(0.0)
-    );
-    println!(
-        "horizon_4096: whole app update, main thread processor time per frame: mean \
-         {cpu_mean:.3} ms, p99 {cpu_p99:.3} ms, max {cpu_max:.3} ms",
-    );
 }
+
+/// The camera speeds of `horizon_4096` (cells a second), flown in this order.
+const HORIZON_SPEEDS: [f32; 4] = [10.0, 25.0, 50.0, 100.0];
 
 /// Mean, 99th percentile and max of `v` (sorting it); `None` when it is empty.
 fn spread(v: &mut [f64]) -> Option<(f64, f64, f64)> {
