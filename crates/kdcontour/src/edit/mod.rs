@@ -299,7 +299,7 @@ impl Field for EditedField {
     }
 
     /// The base's, with the gradient, where no brush reaches `p` (the gradient
-    /// is the base's there); [`EditedField::material_at`] elsewhere.
+    /// is the base's there); the edited blend of brushes and base elsewhere.
     fn material_with_gradient(&self, p: Vec3, gradient: Vec3) -> crate::material::MaterialBlend {
         if self.edits.is_empty() {
             return self.base.material_with_gradient(p, gradient);
