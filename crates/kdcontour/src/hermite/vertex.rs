@@ -140,14 +140,17 @@ pub(super) fn cell_vertices(
                 .collect()
         };
         let (after, before) = (placed(&rounded), placed(&prev));
-        let crossing: Vec<bool> = moving
-            .par_iter()
-            .zip(&near)
-            .map(|(&p, near)| {
-                let n = around.crossings(p, near, &after, &slot);
-                n > 0 && n > around.crossings(p, near, &before, &slot)
-            })
-            .collect();
+
+        // Crossings after the step, and before it for the patches with any
+        // after it (see `Around::counts`).
+        let all: Vec<usize> = (0..moving.len()).collect();
+        let after_n = around.counts(&moving, &near, &all, &after, &slot);
+        let crossed: Vec<usize> = all.iter().copied().filter(|&i| after_n[i] > 0).collect();
+        let before_n = around.counts(&moving, &near, &crossed, &before, &slot);
+        let mut crossing = vec![false; moving.len()];
+        for (&i, b) in crossed.iter().zip(before_n) {
+            crossing[i] = after_n[i] > b;
+        }
         for &q in &used {
             slot[q as usize] = u32::MAX;
         }
@@ -240,24 +243,81 @@ impl Around {
         near
     }
 
-    /// How many pairs of triangles cross, one of a quad around patch `p` and
-    /// one of another quad of `near` (both diagonals of every quad: the one the
-    /// mesh takes depends on the normals it rounds), each quad's triangles
-    /// placed at `placed[slot[quad]]`.
-    fn crossings(&self, p: u32, near: &[u32], placed: &[[Placed; 4]], slot: &[u32]) -> usize {
-        let mut n = 0;
-        for &q in self.of(p) {
-            for a in &placed[slot[q as usize] as usize] {
-                for &r in near.iter().filter(|&&r| r != q) {
-                    n += placed[slot[r as usize] as usize]
-                        .iter()
-                        .filter(|b| a.crosses(b))
-                        .count();
+    /// For each patch `moving[i]` of `which`: how many pairs of triangles cross,
+    /// one of a quad around it and one of another quad of its `near[i]` (both
+    /// diagonals of every quad: the one the mesh takes depends on the normals
+    /// it rounds), each quad's triangles placed at `placed[slot[quad]]`.
+    ///
+    /// A folding quad moves all four of its corners, whose near quads overlap:
+    /// each quad around a patch is counted once against the union of its
+    /// patches' near quads, and the counts are summed per patch.
+    fn counts(
+        &self,
+        moving: &[u32],
+        near: &[Vec<u32>],
+        which: &[usize],
+        placed: &[[Placed; 4]],
+        slot: &[u32],
+    ) -> Vec<usize> {
+        // (quad around a patch, the patch's index in `which`)
+        let mut sides: Vec<(u32, u32)> = which
+            .iter()
+            .enumerate()
+            .flat_map(|(j, &i)| self.of(moving[i]).iter().map(move |&q| (q, j as u32)))
+            .collect();
+        sides.sort_unstable();
+        let groups: Vec<&[(u32, u32)]> = sides.chunk_by(|a, b| a.0 == b.0).collect();
+        // Per such quad: the quads it is counted against, with the count.
+        let counted: Vec<(u32, Vec<(u32, u32)>)> = groups
+            .par_iter()
+            .map(|g| {
+                let q = g[0].0;
+                let mut against: Vec<u32> = g
+                    .iter()
+                    .flat_map(|&(_, j)| near[which[j as usize]].iter().copied())
+                    .filter(|&r| r != q)
+                    .collect();
+                against.sort_unstable();
+                against.dedup();
+                let counts = against
+                    .iter()
+                    .map(|&r| (r, pair_crossings(placed, slot, q, r) as u32))
+                    .collect();
+                (q, counts)
+            })
+            .collect();
+        which
+            .par_iter()
+            .map(|&i| {
+                let mut n = 0usize;
+                for &q in self.of(moving[i]) {
+                    let k = counted
+                        .binary_search_by_key(&q, |c| c.0)
+                        .expect("every quad around a patch is counted");
+                    let against = &counted[k].1;
+                    for &r in near[i].iter().filter(|&&r| r != q) {
+                        let m = against
+                            .binary_search_by_key(&r, |c| c.0)
+                            .expect("every near quad is counted");
+                        n += against[m].1 as usize;
+                    }
                 }
-            }
-        }
-        n
+                n
+            })
+            .collect()
     }
+}
+
+/// How many pairs of triangles cross, one of quad `q` and one of quad `r`,
+/// placed at `placed[slot[quad]]`.
+fn pair_crossings(placed: &[[Placed; 4]], slot: &[u32], q: u32, r: u32) -> usize {
+    let (a, b) = (
+        &placed[slot[q as usize] as usize],
+        &placed[slot[r as usize] as usize],
+    );
+    a.iter()
+        .map(|a| b.iter().filter(|b| a.crosses(b)).count())
+        .sum()
 }
 
 /// The four triangles of `quad` (both diagonals) with its patches at `vertex`.
