@@ -134,7 +134,7 @@ pub(super) fn cell_vertices(
         for (i, &q) in used.iter().enumerate() {
             slot[q as usize] = i as u32;
         }
-        let placed = |vertex: &[Vec3]| -> Vec<[Placed; 4]> {
+        let placed = |vertex: &[Vec3]| -> Vec<PlacedQuad> {
             used.par_iter()
                 .map(|&q| place_quad(&quads[q as usize], vertex))
                 .collect()
@@ -256,7 +256,7 @@ impl Around {
         moving: &[u32],
         near: &[Vec<u32>],
         which: &[usize],
-        placed: &[[Placed; 4]],
+        placed: &[PlacedQuad],
         slot: &[u32],
     ) -> Vec<usize> {
         // (quad around a patch, the patch's index in `which`)
@@ -310,23 +310,53 @@ impl Around {
 
 /// How many pairs of triangles cross, one of quad `q` and one of quad `r`,
 /// placed at `placed[slot[quad]]`.
-fn pair_crossings(placed: &[[Placed; 4]], slot: &[u32], q: u32, r: u32) -> usize {
+fn pair_crossings(placed: &[PlacedQuad], slot: &[u32], q: u32, r: u32) -> usize {
     let (a, b) = (
         &placed[slot[q as usize] as usize],
         &placed[slot[r as usize] as usize],
     );
-    a.iter()
-        .map(|a| b.iter().filter(|b| a.crosses(b)).count())
+    if !a.bounds.meets(&b.bounds) {
+        return 0;
+    }
+    a.triangles
+        .iter()
+        .filter(|a| a.bounds.meets(&b.bounds))
+        .map(|a| b.triangles.iter().filter(|b| a.crosses(b)).count())
         .sum()
 }
 
+/// A quad's four triangles (both diagonals) and the box around them.
+struct PlacedQuad {
+    triangles: [Placed; 4],
+    bounds: Bounds,
+}
+
 /// The four triangles of `quad` (both diagonals) with its patches at `vertex`.
-fn place_quad(quad: &DualQuad, vertex: &[Vec3]) -> [Placed; 4] {
+fn place_quad(quad: &DualQuad, vertex: &[Vec3]) -> PlacedQuad {
     let v = quad.patches.map(|i| vertex[i as usize].as_dvec3());
-    [[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]].map(|t| Placed {
-        patches: t.map(|k| quad.patches[k]),
-        ..Placed::new(t.map(|k| v[k]))
-    })
+    PlacedQuad {
+        triangles: [[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]].map(|t| Placed {
+            patches: t.map(|k| quad.patches[k]),
+            ..Placed::new(t.map(|k| v[k]))
+        }),
+        bounds: Bounds {
+            lo: v[0].min(v[1]).min(v[2]).min(v[3]),
+            hi: v[0].max(v[1]).max(v[2]).max(v[3]),
+        },
+    }
+}
+
+/// An axis-aligned box (grid units).
+struct Bounds {
+    lo: DVec3,
+    hi: DVec3,
+}
+
+impl Bounds {
+    /// Whether the boxes overlap or touch.
+    fn meets(&self, o: &Bounds) -> bool {
+        !(self.lo.cmpgt(o.hi).any() || o.lo.cmpgt(self.hi).any())
+    }
 }
 
 /// A triangle with its patches, unit normal and bounding box.
@@ -335,8 +365,7 @@ struct Placed {
     patches: [u32; 3],
     corners: [DVec3; 3],
     normal: Option<DVec3>,
-    lo: DVec3,
-    hi: DVec3,
+    bounds: Bounds,
 }
 
 impl Placed {
@@ -345,8 +374,10 @@ impl Placed {
             patches: [u32::MAX; 3],
             corners: t,
             normal: unit_normal(&t),
-            lo: t[0].min(t[1]).min(t[2]),
-            hi: t[0].max(t[1]).max(t[2]),
+            bounds: Bounds {
+                lo: t[0].min(t[1]).min(t[2]),
+                hi: t[0].max(t[1]).max(t[2]),
+            },
         }
     }
 
@@ -354,7 +385,7 @@ impl Placed {
     /// two corners in common (an edge) never do: their planes meet along that
     /// edge, which both only touch.
     fn crosses(&self, o: &Placed) -> bool {
-        if self.lo.cmpgt(o.hi).any() || o.lo.cmpgt(self.hi).any() {
+        if !self.bounds.meets(&o.bounds) {
             return false;
         }
         let shared = self
