@@ -48,6 +48,8 @@ const MAX_ROUNDS: usize = 8;
 const STEPS: u8 = 4;
 /// The step of a patch that stays where it is.
 const FROZEN: u8 = u8::MAX;
+/// A pair of quads whose count another quad's list holds.
+const UNCOUNTED: u32 = u32::MAX;
 
 /// The dual quad of one crossing edge with four cells around it: their patches
 /// in the contouring's order (counter-clockwise about the edge's axis), and the
@@ -103,13 +105,29 @@ pub(super) fn cell_vertices(
     let mut around: Option<Around> = None;
     // Per quad, its place in a round's placed triangles (`u32::MAX`: none).
     let mut slot = vec![u32::MAX; quads.len()];
+    // The quads a round tests: every quad at first, then the quads around the
+    // patches that stepped. A quad none of whose patches stepped has the
+    // vertices it had when it was last tested: it faces as it did then, or it
+    // folded and none of its patches can move (each froze, or took its last
+    // step), so it moves nothing.
+    let mut dirty: Option<Vec<u32>> = None;
     for _ in 0..MAX_ROUNDS {
-        let mut moving: Vec<u32> = quads
-            .par_iter()
-            .filter(|q| !quad_faces(q, &rounded, &unit, facing))
-            .flat_map_iter(|q| q.patches)
-            .filter(|&p| step[p as usize] < STEPS)
-            .collect();
+        let folds = |q: &DualQuad| !quad_faces(q, &rounded, &unit, facing);
+        let mut moving: Vec<u32> = match &dirty {
+            None => quads
+                .par_iter()
+                .filter(|q| folds(q))
+                .flat_map_iter(|q| q.patches)
+                .filter(|&p| step[p as usize] < STEPS)
+                .collect(),
+            Some(dirty) => dirty
+                .par_iter()
+                .map(|&q| &quads[q as usize])
+                .filter(|q| folds(q))
+                .flat_map_iter(|q| q.patches)
+                .filter(|&p| step[p as usize] < STEPS)
+                .collect(),
+        };
         if moving.is_empty() {
             break;
         }
@@ -128,41 +146,53 @@ pub(super) fn cell_vertices(
         // Each moving patch's near quads, and every quad's triangles that a
         // count reads placed once (a quad is near many moving patches).
         let near: Vec<Vec<u32>> = moving.par_iter().map(|&p| around.near(p, quads)).collect();
-        let mut used: Vec<u32> = near.iter().flatten().copied().collect();
-        used.sort_unstable();
-        used.dedup();
-        for (i, &q) in used.iter().enumerate() {
-            slot[q as usize] = i as u32;
-        }
-        let placed = |vertex: &[Vec3]| -> Vec<PlacedQuad> {
-            used.par_iter()
+        let place_near = |which: &[usize], vertex: &[Vec3], slot: &mut [u32]| {
+            let mut used: Vec<u32> = which.iter().flat_map(|&i| &near[i]).copied().collect();
+            used.sort_unstable();
+            used.dedup();
+            for (i, &q) in used.iter().enumerate() {
+                slot[q as usize] = i as u32;
+            }
+            let placed: Vec<PlacedQuad> = used
+                .par_iter()
                 .map(|&q| place_quad(&quads[q as usize], vertex))
-                .collect()
+                .collect();
+            (used, placed)
         };
-        let (after, before) = (placed(&rounded), placed(&prev));
 
         // Crossings after the step, and before it for the patches with any
         // after it (see `Around::counts`).
         let all: Vec<usize> = (0..moving.len()).collect();
+        let (used, after) = place_near(&all, &rounded, &mut slot);
         let after_n = around.counts(&moving, &near, &all, &after, &slot);
-        let crossed: Vec<usize> = all.iter().copied().filter(|&i| after_n[i] > 0).collect();
-        let before_n = around.counts(&moving, &near, &crossed, &before, &slot);
-        let mut crossing = vec![false; moving.len()];
-        for (&i, b) in crossed.iter().zip(before_n) {
-            crossing[i] = after_n[i] > b;
-        }
         for &q in &used {
             slot[q as usize] = u32::MAX;
         }
-        for (&p, cross) in moving.iter().zip(crossing) {
-            let p = p as usize;
-            if cross {
-                step[p] = FROZEN;
-                rounded[p] = prev[p];
-            } else {
-                vertex[p] = place(p, step[p]);
+        let crossed: Vec<usize> = all.iter().copied().filter(|&i| after_n[i] > 0).collect();
+        let mut crossing = vec![false; moving.len()];
+        if !crossed.is_empty() {
+            let (used, before) = place_near(&crossed, &prev, &mut slot);
+            let before_n = around.counts(&moving, &near, &crossed, &before, &slot);
+            for &q in &used {
+                slot[q as usize] = u32::MAX;
+            }
+            for (&i, b) in crossed.iter().zip(before_n) {
+                crossing[i] = after_n[i] > b;
             }
         }
+        let mut stepped: Vec<u32> = Vec::with_capacity(moving.len());
+        for (&p, cross) in moving.iter().zip(crossing) {
+            if cross {
+                step[p as usize] = FROZEN;
+                rounded[p as usize] = prev[p as usize];
+            } else {
+                vertex[p as usize] = place(p as usize, step[p as usize]);
+                stepped.extend_from_slice(around.of(p));
+            }
+        }
+        stepped.sort_unstable();
+        stepped.dedup();
+        dirty = Some(stepped);
     }
     vertex
 }
@@ -268,7 +298,10 @@ impl Around {
         sides.sort_unstable();
         let groups: Vec<&[(u32, u32)]> = sides.chunk_by(|a, b| a.0 == b.0).collect();
         // Per such quad: the quads it is counted against, with the count.
-        let counted: Vec<(u32, Vec<(u32, u32)>)> = groups
+        // A pair of quads both around moving patches is counted once, by the
+        // lower quad (`UNCOUNTED` until then).
+        let is_group = |r: u32| groups.binary_search_by_key(&r, |g| g[0].0).is_ok();
+        let mut counted: Vec<(u32, Vec<(u32, u32)>)> = groups
             .par_iter()
             .map(|g| {
                 let q = g[0].0;
@@ -281,11 +314,43 @@ impl Around {
                 against.dedup();
                 let counts = against
                     .iter()
-                    .map(|&r| (r, pair_crossings(placed, slot, q, r) as u32))
+                    .map(|&r| {
+                        let n = if r < q && is_group(r) {
+                            UNCOUNTED
+                        } else {
+                            pair_crossings(placed, slot, q, r) as u32
+                        };
+                        (r, n)
+                    })
                     .collect();
                 (q, counts)
             })
             .collect();
+        let lookup = |counted: &[(u32, Vec<(u32, u32)>)], q: u32, r: u32| {
+            let k = counted.binary_search_by_key(&q, |c| c.0).ok()?;
+            let against = &counted[k].1;
+            let m = against.binary_search_by_key(&r, |c| c.0).ok()?;
+            Some(against[m].1).filter(|&n| n != UNCOUNTED)
+        };
+        let filled: Vec<Vec<u32>> = counted
+            .par_iter()
+            .map(|(q, against)| {
+                against
+                    .iter()
+                    .filter(|c| c.1 == UNCOUNTED)
+                    .map(|&(r, _)| {
+                        lookup(&counted, r, *q)
+                            .unwrap_or_else(|| pair_crossings(placed, slot, r, *q) as u32)
+                    })
+                    .collect()
+            })
+            .collect();
+        for ((_, against), filled) in counted.iter_mut().zip(filled) {
+            let mut filled = filled.into_iter();
+            for c in against.iter_mut().filter(|c| c.1 == UNCOUNTED) {
+                c.1 = filled.next().expect("one count per uncounted pair");
+            }
+        }
         which
             .par_iter()
             .map(|&i| {
