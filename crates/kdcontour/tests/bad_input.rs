@@ -315,3 +315,75 @@ fn every_scene_error_names_its_place_and_cuts_long_values() {
         }
     }
 }
+
+/// A vector parameter whose squared length overflows (or underflows) f32 is
+/// normalised as the vector it points along, not turned into zero or NaN: a
+/// plane's normal and a rotation's axis give the field the small vector gives.
+#[test]
+fn huge_and_tiny_direction_vectors_mean_their_direction() {
+    use kdcontour::Field;
+    let plane = |n: &str| {
+        format!(
+            r#"{{"type":"intersection","children":[{{"type":"sphere","radius":0.9}},{{"type":"plane","normal":{n},"offset":0.1}}]}}"#
+        )
+    };
+    let rotated = |axis: &str| {
+        format!(
+            r#"{{"type":"transform","rotate_axis":{axis},"rotate_degrees":30,"child":{{"type":"box","half_extents":[0.5,0.3,0.2]}}}}"#
+        )
+    };
+    let cases = [
+        (plane("[1,1,0]"), plane("[1e20,1e20,0]")),
+        (plane("[1,1,0]"), plane("[3e38,3e38,0]")),
+        (plane("[1,0,0]"), plane("[2e19,0,0]")),
+        (plane("[0,1,1]"), plane("[0,1e-4,1e-4]")),
+        (rotated("[1,1,0]"), rotated("[1e20,1e20,0]")),
+        (rotated("[0,0,1]"), rotated("[0,0,3e38]")),
+        (rotated("[1,2,3]"), rotated("[1e-3,2e-3,3e-3]")),
+    ];
+    for (small, scaled) in &cases {
+        let a = CsgNode::from_json(small).unwrap().compile().unwrap();
+        let b = CsgNode::from_json(scaled).unwrap().compile().unwrap();
+        let mut inside = 0;
+        for i in 0..1000 {
+            let t = i as f32;
+            let p = (Vec3::new(t * 0.618, t * 0.414, t * 0.732).fract() - 0.5) * 1.6;
+            let (va, vb) = (a.value(p), b.value(p));
+            assert!(vb.is_finite(), "{scaled} at {p}: {vb}");
+            assert!(
+                (va - vb).abs() <= 1e-6,
+                "{scaled} at {p}: {vb}, {small} gives {va}"
+            );
+            inside += (va < 0.0) as usize;
+        }
+        assert!(
+            inside > 50 && inside < 950,
+            "{small}: {inside} of 1000 inside"
+        );
+    }
+}
+
+/// A direction too short to have one is refused by name, with its value and
+/// the shortest length taken.
+#[test]
+fn vanishing_directions_are_refused_by_name() {
+    let cases = [
+        (r#"{"type":"plane","normal":[1e-7,0,0]}"#, "root.normal"),
+        (
+            r#"{"type":"plane","normal":[1e-30,1e-30,1e-30]}"#,
+            "root.normal",
+        ),
+        (
+            r#"{"type":"transform","rotate_axis":[0,-1e-9,0],"rotate_degrees":10,"child":{"type":"sphere","radius":1}}"#,
+            "root.rotate_axis",
+        ),
+    ];
+    for (text, path) in cases {
+        let msg = CsgNode::from_json(text).unwrap_err().to_string();
+        assert!(msg.contains(path), "{text}: {msg}");
+        assert!(
+            msg.contains("must not be zero (length at least 0.000001)"),
+            "{text}: {msg}"
+        );
+    }
+}

@@ -21,6 +21,24 @@ pub const CREASE_DEGREES: f32 = 30.0;
 /// Coplanarity and crossing tolerance of the intersection test, in cells.
 pub const INTERSECTION_TOL_CELLS: f64 = 1e-3;
 
+/// The length of `v`, computed without overflow or underflow in its square
+/// (`v` is divided by its largest component first): `[1e20, 1e20, 0]` is
+/// `1.41e20`, not infinity, and `[1e-25, 0, 0]` is `1e-25`, not 0.
+pub(crate) fn safe_length(v: Vec3) -> f32 {
+    let m = v.abs().max_element();
+    if m == 0.0 || !m.is_finite() {
+        return m;
+    }
+    m * (v / m).length()
+}
+
+/// `v` scaled to unit length ([`safe_length`]'s way, so no finite non-zero
+/// vector turns into zero or NaN), or `None` when it is zero or not finite.
+pub(crate) fn unit_vector(v: Vec3) -> Option<Vec3> {
+    let m = v.abs().max_element();
+    (v.is_finite() && m > 0.0).then(|| (v / m).normalize())
+}
+
 /// The (unnormalised) normal of triangle `t`, counter-clockwise seen from its
 /// front, in f64.
 pub(crate) fn face_normal([a, b, c]: [Vec3; 3]) -> DVec3 {

@@ -159,7 +159,7 @@ mod tests {
             (
                 r#"{"type":"plane","normal":[0,0,0]}"#,
                 "root.normal",
-                "must not be zero",
+                "must not be zero (length at least 0.000001), got [0, 0, 0]",
             ),
             (
                 r#"{"type":"plane","normal":[0,1,0],"offset":1e40}"#,
@@ -190,7 +190,7 @@ mod tests {
             (
                 r#"{"type":"transform","rotate_axis":[0,0,0],"rotate_degrees":90,"child":{"type":"sphere","radius":1}}"#,
                 "root.rotate_axis",
-                "must not be zero",
+                "must not be zero (length at least 0.000001), got [0, 0, 0]",
             ),
             (
                 r#"{"type":"transform","scale":0,"child":{"type":"sphere","radius":-1}}"#,

@@ -6,6 +6,7 @@ use super::CsgNode;
 use crate::error::Error;
 use crate::field::sdf::Primitive;
 use crate::field::terrain::{Density, Heightfield};
+use crate::geometry::unit_vector;
 use glam::{Quat, Vec3};
 
 /// What a compiled node computes.
@@ -112,7 +113,10 @@ fn compile_op(n: &CsgNode) -> Op {
             let rot = if *rotate_degrees == 0.0 {
                 Quat::IDENTITY
             } else {
-                Quat::from_axis_angle(rotate_axis.normalize(), rotate_degrees.to_radians())
+                Quat::from_axis_angle(
+                    unit_vector(*rotate_axis).expect("checked: a rotation's axis is not zero"),
+                    rotate_degrees.to_radians(),
+                )
             };
             Op::Transform {
                 inv_rot: rot.inverse(),

@@ -2,7 +2,12 @@
 //! names the first field outside its range.
 
 use crate::error::SceneError;
+use crate::geometry::safe_length;
 use glam::Vec3;
+
+/// The shortest vector (and the smallest number in size) [`Range::NonZero`]
+/// takes.
+const MIN_LENGTH: f32 = 1e-6;
 
 /// The range a field must lie in. A vector is checked as a whole against
 /// [`Range::Finite`] and [`Range::NonZero`], and component by component (named
@@ -83,9 +88,10 @@ impl Param {
             (Value::Vector(v), Range::Finite) if !v.is_finite() => {
                 fault(self.field.into(), format!("must be finite, got {v}"))
             }
-            (Value::Vector(v), Range::NonZero) if v.length_squared() < 1e-12 => {
-                fault(self.field.into(), "must not be zero".into())
-            }
+            (Value::Vector(v), Range::NonZero) if !(safe_length(v) >= MIN_LENGTH) => fault(
+                self.field.into(),
+                format!("must not be zero (length at least {MIN_LENGTH}), got {v}"),
+            ),
             (Value::Vector(_), Range::Finite | Range::NonZero) => Ok(()),
             (Value::Vector(v), range) => {
                 for (axis, x) in ["x", "y", "z"].iter().zip(v.to_array()) {
@@ -122,7 +128,8 @@ impl Range {
             }
             Range::Finite => (!v.is_finite()).then(|| format!("must be finite, got {v}")),
             Range::FiniteUnquoted => (!v.is_finite()).then(|| "must be finite".to_string()),
-            Range::NonZero => (v * v < 1e-12).then(|| "must not be zero".to_string()),
+            Range::NonZero => (!(v.abs() >= MIN_LENGTH))
+                .then(|| format!("must not be zero (at least {MIN_LENGTH} in size), got {v}")),
         }
     }
 }

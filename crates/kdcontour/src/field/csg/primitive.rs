@@ -5,6 +5,7 @@
 use super::param::{param, Param, Range, Range::*};
 use super::CsgNode;
 use crate::field::sdf::Primitive;
+use crate::geometry::unit_vector;
 use glam::Vec3;
 
 /// A primitive node read out of a [`CsgNode`].
@@ -109,7 +110,7 @@ impl CsgNode {
             CsgNode::Plane { normal, offset } => {
                 return Some(PrimitiveNode {
                     shape: Primitive::Plane {
-                        normal: normal.normalize(),
+                        normal: unit_vector(normal).unwrap_or(Vec3::ZERO),
                         offset,
                     },
                     center: Vec3::ZERO,
