@@ -22,7 +22,12 @@ pub struct Input {
     #[arg(long = "type")]
     voxel_type: Option<String>,
     /// Raw volumes: voxel spacing along x, y, z (world units).
-    #[arg(long, value_parser = parse_vec3, default_value = "1,1,1")]
+    #[arg(
+        long,
+        value_parser = parse_vec3,
+        default_value = "1,1,1",
+        allow_hyphen_values = true
+    )]
     spacing: glam::Vec3,
     /// Volumes: the iso value of the surface.
     #[arg(long, allow_negative_numbers = true)]

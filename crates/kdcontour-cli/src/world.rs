@@ -31,8 +31,9 @@ pub struct World {
     #[arg(long, conflicts_with = "camera")]
     thresholds: Option<String>,
     /// Per-chunk thresholds from the distance to a camera at X,Y,Z (0.001 within
-    /// 0.25, growing with the square of the distance).
-    #[arg(long, value_parser = parse_vec3)]
+    /// 0.25, growing with the square of the distance). Negative values may
+    /// follow the flag (`--camera -1,0,0`).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     camera: Option<glam::Vec3>,
     /// Chunk levels of detail: `random:SEED` (random balanced levels) or
     /// `camera:X,Y,Z` (finest at a camera in the world's [-1, 1] coordinates,

@@ -491,7 +491,12 @@ fn world_writes_a_welded_closed_mesh() {
     let dir = std::env::temp_dir().join(format!("kdcontour-cli-world-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("world.ply");
-    for extra in [["--thresholds", "random:3"], ["--camera", "0.2,0.9,-1.5"]] {
+    // A negative vector may follow its flag.
+    for extra in [
+        ["--thresholds", "random:3"],
+        ["--camera", "0.2,0.9,-1.5"],
+        ["--camera", "-0.2,0.9,-1.5"],
+    ] {
         let (code, stdout, err) = kdcontour(&[
             "world",
             "--scene",
