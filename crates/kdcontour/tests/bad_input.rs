@@ -215,8 +215,8 @@ fn schema_errors_in_scene_files_name_the_node() {
     let cases = [
         (
             "{\"type\": \"sphere\", \"radius\": \"big\"}",
-            "root",
-            "invalid type",
+            "root.radius",
+            "invalid type: string \"big\", expected a number",
         ),
         ("{\"type\": \"sphere\"}", "root", "missing field `radius`"),
         (

@@ -167,7 +167,11 @@ mod tests {
         )
         .unwrap_err()
         .to_string();
-        assert!(err.starts_with("scene node `root.children[0]`: "), "{err}");
+        assert_eq!(
+            err,
+            "scene node `root.children[0].id`: invalid value: integer `300`, expected an \
+             integer from 0 to 255"
+        );
         let err = CsgNode::from_json(
             r#"{"type":"material","id":1,"child":{"type":"sphere","radius":-1}}"#,
         )

@@ -155,8 +155,8 @@ fn node(v: &Value, path: &str, depth: usize) -> Result<CsgNode, SceneError> {
             own.insert(k.clone(), val.clone());
         }
     }
-    let mut n = CsgNode::deserialize(Value::Object(own))
-        .map_err(|e| semantic(path, cut_quoted(&e.to_string())))?;
+    let mut n = CsgNode::deserialize(Value::Object(own.clone()))
+        .map_err(|e| field_error(&own, path, &e.to_string()))?;
     for (k, val) in kids {
         match (&mut n, val) {
             (
@@ -183,6 +183,49 @@ fn node(v: &Value, path: &str, depth: usize) -> Result<CsgNode, SceneError> {
         }
     }
     Ok(n)
+}
+
+/// The error of a node whose fields `own` do not deserialize: at the field
+/// that is wrong (`root.id`) when one is, found by leaving each field out in
+/// turn (the node then reads, or misses exactly that field), with serde's
+/// Rust type names said as ranges (`expected u8`: an integer from 0 to 255).
+fn field_error(own: &Map<String, Value>, path: &str, message: &str) -> SceneError {
+    // Unknown and missing fields are named by the message itself.
+    let wrong_value = message.starts_with("invalid ");
+    let culprit = own
+        .keys()
+        .filter(|k| wrong_value && k.as_str() != "type")
+        .find(|k| {
+            let mut rest = own.clone();
+            rest.remove(k.as_str());
+            match CsgNode::deserialize(Value::Object(rest)) {
+                Ok(_) => true,
+                Err(e) => e.to_string() == format!("missing field `{k}`"),
+            }
+        });
+    let message = cut_quoted(&in_user_terms(message));
+    match culprit {
+        Some(k) => semantic(&format!("{path}.{k}"), message),
+        None => semantic(path, message),
+    }
+}
+
+/// serde's message with its Rust type names (`u8`, `f32`) said as what a
+/// scene file may hold there.
+fn in_user_terms(message: &str) -> String {
+    [
+        ("expected a sequence of 3 f32 values", "expected a list of three numbers"),
+        ("expected u8", "expected an integer from 0 to 255"),
+        ("expected u32", "expected an integer from 0 to 4294967295"),
+        ("expected f32", "expected a number"),
+        ("expected a sequence", "expected a list"),
+        (
+            "expected an array of length 3",
+            "expected a list of three numbers",
+        ),
+    ]
+    .iter()
+    .fold(message.to_string(), |m, (rust, user)| m.replace(rust, user))
 }
 
 /// What a JSON value is, for messages (strings cut).
@@ -226,9 +269,35 @@ mod tests {
             ),
             (
                 r#"{"type":"union","children":{"type":"sphere","radius":1}}"#,
-                "scene node `root`: invalid type: map, expected a sequence",
+                "scene node `root.children`: invalid type: map, expected a list",
             ),
             (r#"{"radius":1}"#, "scene node `root`: missing field `type`"),
+            // A value of the wrong kind or out of its type's range: the field's
+            // path and the range in a scene file's terms.
+            (
+                r#"{"type":"material","id":256,"child":{"type":"sphere","radius":1}}"#,
+                "scene node `root.id`: invalid value: integer `256`, expected an integer from 0 to 255",
+            ),
+            (
+                r#"{"type":"union","children":[{"type":"material","id":-1,"child":{"type":"sphere","radius":1}}]}"#,
+                "scene node `root.children[0].id`: invalid value: integer `-1`, expected an integer from 0 to 255",
+            ),
+            (
+                r#"{"type":"material","id":2.5,"child":{"type":"sphere","radius":1}}"#,
+                "scene node `root.id`: invalid type: floating point `2.5`, expected an integer from 0 to 255",
+            ),
+            (
+                r#"{"type":"heightfield","amplitude":1,"frequency":1,"octaves":5,"seed":-3}"#,
+                "scene node `root.seed`: invalid value: integer `-3`, expected an integer from 0 to 4294967295",
+            ),
+            (
+                r#"{"type":"sphere","radius":"big"}"#,
+                "scene node `root.radius`: invalid type: string \"big\", expected a number",
+            ),
+            (
+                r#"{"type":"box","half_extents":[1,1]}"#,
+                "scene node `root.half_extents`: invalid length 2, expected a list of three numbers",
+            ),
         ];
         for (text, want) in cases {
             let got = err(text);
