@@ -79,17 +79,32 @@ impl Budget {
             "tib" => 1 << 40,
             _ => return Err(format!("`{quoted}`: unknown size unit; {valid}")),
         };
-        let bytes = value * scale as f64;
-        // Digits and dots only: never NaN.
-        if bytes < 1.0 {
+        let too_large = || {
+            format!(
+                "`{quoted}` is more than the largest size, {} bytes (16 EiB); {valid}",
+                u64::MAX
+            )
+        };
+        // A whole number is taken exactly (u64::MAX is a size; f64 would round
+        // it up past the largest).
+        let bytes = match number.parse::<u64>() {
+            Ok(whole) => whole.checked_mul(scale).ok_or_else(too_large)?,
+            Err(_) if !number.contains('.') => return Err(too_large()),
+            Err(_) => {
+                let bytes = value * scale as f64;
+                // Digits and dots only: never NaN. 2^64 as f64 is past u64::MAX.
+                if bytes >= 18_446_744_073_709_551_616.0 {
+                    return Err(too_large());
+                }
+                bytes as u64
+            }
+        };
+        if bytes < 1 {
             return Err(format!(
                 "`{quoted}` is no memory at all: every load and build would be refused; {valid}"
             ));
         }
-        if bytes >= u64::MAX as f64 {
-            return Err(format!("`{quoted}` is more than 2^64 bytes; {valid}"));
-        }
-        Ok(Budget(bytes as u64))
+        Ok(Budget(bytes))
     }
 }
 
@@ -155,6 +170,8 @@ mod tests {
             ("100 KiB", 102_400),
             ("2TB", 2_000_000_000_000),
             ("1B", 1),
+            ("18446744073709551615", u64::MAX),
+            ("16777215TiB", 16_777_215 << 40),
         ] {
             assert_eq!(Budget::parse(text), Ok(Budget::bytes(bytes)), "{text}");
             assert_eq!(text.parse::<Budget>(), Ok(Budget::bytes(bytes)), "{text}");
@@ -173,7 +190,14 @@ mod tests {
             ("4G", "unknown size unit"),
             ("4 GiB extra", "unknown size unit"),
             ("1.2.3MB", "not a size"),
-            ("99999999999TiB", "more than 2^64"),
+            (
+                "99999999999TiB",
+                "more than the largest size, 18446744073709551615 bytes",
+            ),
+            ("18446744073709551616", "more than the largest size"),
+            ("99999999999999999999999", "more than the largest size"),
+            ("16777216TiB", "more than the largest size"),
+            ("18446744073709551616.5", "more than the largest size"),
         ] {
             let e = Budget::parse(text).unwrap_err();
             assert!(e.contains(says), "{text}: {e}");
