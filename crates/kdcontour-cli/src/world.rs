@@ -140,6 +140,19 @@ pub fn run(args: World) -> Result<(), String> {
     }
     let default_chunks = if levels.is_some() { 16 } else { 3 };
     let chunks = args.chunks.unwrap_or(UVec3::splat(default_chunks));
+    if chunks.min_element() == 0 {
+        return Err(format!(
+            "--chunks must be at least 1 along every axis, got {},{},{}",
+            chunks.x, chunks.y, chunks.z
+        ));
+    }
+    if levels.is_some() && !args.chunk_res.is_multiple_of(2) {
+        return Err(format!(
+            "--chunk-res must be even with --levels (a level-1 cell is two level-0 \
+             cells), got {}",
+            args.chunk_res
+        ));
+    }
     let top = match levels {
         Some(_) => levels::top_level(chunks)?,
         None => 0,

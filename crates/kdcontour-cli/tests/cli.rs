@@ -620,7 +620,15 @@ fn world_levels_weld_closed_and_report_each_level() {
         ),
         (
             vec!["--levels", "random:1", "--chunk-res", "7"],
-            "chunk_res",
+            "--chunk-res must be even with --levels",
+        ),
+        (
+            vec!["--levels", "random:1", "--chunks", "0,0,0"],
+            "--chunks must be at least 1 along every axis, got 0,0,0",
+        ),
+        (
+            vec!["--chunks", "4,0,4", "--thresholds", "random:1"],
+            "--chunks must be at least 1 along every axis",
         ),
     ] {
         let mut args = vec!["world", "--scene", "torus"];
@@ -631,4 +639,33 @@ fn world_levels_weld_closed_and_report_each_level() {
         assert!(err.contains(says), "{args:?}: {err}");
     }
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A camera however far out (but finite) lays out the coarsest chunks only, as
+/// one just past the world does; the message never speaks of chunk units.
+#[test]
+fn a_far_level_camera_lays_out_the_top_level() {
+    let mut counts = Vec::new();
+    for cam in ["camera:-3.4e38,0,0", "camera:0,3e38,-3e38", "camera:0,0,50"] {
+        let (code, stdout, err) = kdcontour(&[
+            "world",
+            "--scene",
+            "torus",
+            "--chunks",
+            "8,8,8",
+            "--chunk-res",
+            "4",
+            "--levels",
+            cam,
+            "--thresholds",
+            "random:3",
+            "--json",
+        ]);
+        assert_eq!(code, 0, "{cam}: {err}");
+        let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap();
+        assert_eq!(v["watertight"], true, "{cam}: {v}");
+        counts.push(v["chunk_count"].as_u64().unwrap());
+    }
+    // 8,8,8 level-0 chunks are 2,2,2 of level 2.
+    assert_eq!(counts, [8, 8, 8]);
 }

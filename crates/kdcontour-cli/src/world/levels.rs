@@ -18,6 +18,9 @@ const SPLIT: f64 = 0.15;
 /// sides of it, so level 0 reaches out about 2 level-0 chunks and level `k` about
 /// `2^(k + 1)` ([`Layout::around`]).
 const RING: f32 = 1.0;
+/// `camera:X,Y,Z` farther out than this along an axis is taken at this
+/// distance: the world spans [-1, 1], so both split no chunk.
+const FAR: f32 = 1e6;
 
 /// A `--levels` value.
 #[derive(Clone, Copy)]
@@ -82,7 +85,12 @@ pub fn world(
     world.keep_samples = false;
     let layout = match levels {
         Levels::Random(seed) => Layout::random(lo, hi, top, SPLIT, seed),
-        Levels::Camera(cam) => Layout::around(lo, hi, top, world.to_chunk_units(cam), RING),
+        // The world spans [-1, 1]: a camera a million units out splits nothing,
+        // as one farther does, and stays finite in chunk units.
+        Levels::Camera(cam) => {
+            let cam = cam.clamp(Vec3::splat(-FAR), Vec3::splat(FAR));
+            Layout::around(lo, hi, top, world.to_chunk_units(cam), RING)
+        }
     }?;
     world.set_layout(layout)?;
     Ok(world)

@@ -475,8 +475,9 @@ fn tiles(lo: IVec3, hi: IVec3, top: u32) -> Result<Vec<ChunkKey>> {
         return Err(Error::InvalidSetting {
             name: "layout",
             reason: format!(
-                "region {lo}..{hi} must be non-empty, at most 2^24 tiles, on the grid of \
-                 level {top} (<= {MAX_LEVEL}) chunks"
+                "region {lo}..{hi} (level-0 chunks) must be non-empty, a whole number of \
+                 level-{top} chunks along every axis (levels 0 to {MAX_LEVEL}), and at most \
+                 2^24 of them"
             ),
         });
     }
