@@ -262,7 +262,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PersistError> {
             )
         })?
         .to_string_lossy();
-    let tmp = path.with_file_name(format!(".{name}.tmp"));
+    let tmp = path.with_file_name(kdcontour::io::temporary_name(&name, "tmp"));
     let written = (|| {
         let mut f =
             std::fs::File::create(&tmp).map_err(|e| io("creating the temporary file", e))?;
@@ -327,6 +327,18 @@ mod tests {
         bad[20..24].copy_from_slice(&crc32fast::hash(&junk).to_le_bytes());
         bad.extend_from_slice(&junk);
         assert!(msg(&bad).contains("do not decode"), "{}", msg(&bad));
+    }
+
+    #[test]
+    fn a_save_with_the_longest_legal_name_writes() {
+        let dir = std::env::temp_dir().join(format!("kdsave-long-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("w".repeat(kdcontour::io::NAME_MAX - 7) + ".kdsave");
+        write_atomic(&path, &encode(&data(3))).unwrap();
+        write_atomic(&path, &encode(&data(4))).unwrap();
+        assert_eq!(read(&path, MAX_FILE_BYTES).unwrap(), Some(data(4)));
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

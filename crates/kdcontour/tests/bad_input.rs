@@ -387,3 +387,35 @@ fn vanishing_directions_are_refused_by_name() {
         );
     }
 }
+
+/// Any name the file system takes (up to 255 bytes, multi-byte characters
+/// too) writes atomically: the temporary name beside it is cut to fit, and no
+/// temporary file is left behind.
+#[test]
+fn the_longest_legal_names_write_and_leave_nothing_behind() {
+    use kdcontour::io::{temporary_name, write_atomic, NAME_MAX};
+    use std::io::Write;
+    let dir = std::env::temp_dir().join(format!("kdcontour-names-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let names = [
+        "x".repeat(NAME_MAX - 4) + ".obj",
+        "é".repeat((NAME_MAX - 4) / 2) + ".ply",
+        "m".repeat(200) + ".stl",
+    ];
+    for name in &names {
+        assert!(name.len() <= NAME_MAX);
+        let tmp = temporary_name(name, "123-4.tmp");
+        assert!(tmp.len() <= NAME_MAX, "{} bytes", tmp.len());
+        let path = dir.join(name);
+        write_atomic(&path, |w| w.write_all(b"first")).unwrap();
+        write_atomic(&path, |w| w.write_all(b"second")).unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"second");
+    }
+    let left: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .filter(|n| n.to_string_lossy().starts_with('.'))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

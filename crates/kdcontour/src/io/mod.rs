@@ -79,6 +79,22 @@ pub fn cut_quoted(message: &str) -> String {
     })
 }
 
+/// The longest file name (bytes) the common file systems take (ext4, XFS,
+/// APFS, NTFS in UTF-16 units).
+pub const NAME_MAX: usize = 255;
+
+/// A hidden temporary name for a file named `name`: `.{name}.{tag}`, with
+/// `name` cut (on a character boundary) so the whole is at most [`NAME_MAX`]
+/// bytes: a legal 255-byte name has a legal temporary name too.
+pub fn temporary_name(name: &str, tag: &str) -> String {
+    let room = NAME_MAX.saturating_sub(2 + tag.len());
+    let mut end = name.len().min(room);
+    while !name.is_char_boundary(end) {
+        end -= 1;
+    }
+    format!(".{}.{tag}", &name[..end])
+}
+
 /// Writes `path` through `write` into a temporary file in the same directory,
 /// then renames it over `path`: a failed write never truncates an existing file.
 pub fn write_atomic(
@@ -96,10 +112,9 @@ pub fn write_atomic(
     // Unique per process and per call, so concurrent writers never share one.
     static CALLS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let tmp = dir.join(format!(
-        ".{}.{}-{call}.tmp",
-        name.to_string_lossy(),
-        std::process::id()
+    let tmp = dir.join(temporary_name(
+        &name.to_string_lossy(),
+        &format!("{}-{call}.tmp", std::process::id()),
     ));
     let result = std::fs::File::create(&tmp).and_then(|f| {
         let mut w = std::io::BufWriter::new(f);

@@ -214,7 +214,10 @@ fn field_error(own: &Map<String, Value>, path: &str, message: &str) -> SceneErro
 /// scene file may hold there.
 fn in_user_terms(message: &str) -> String {
     [
-        ("expected a sequence of 3 f32 values", "expected a list of three numbers"),
+        (
+            "expected a sequence of 3 f32 values",
+            "expected a list of three numbers",
+        ),
         ("expected u8", "expected an integer from 0 to 255"),
         ("expected u32", "expected an integer from 0 to 4294967295"),
         ("expected f32", "expected a number"),
