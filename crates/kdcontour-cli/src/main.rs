@@ -51,6 +51,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    ignore_file_size_signal();
     let result = match Cli::parse().command {
         Command::Mesh(args) => mesh::run(args),
         Command::Compare(args) => compare::run(args),
@@ -64,5 +65,18 @@ fn main() -> ExitCode {
             eprintln!("error: {e}");
             ExitCode::from(2)
         }
+    }
+}
+
+/// A write past the process's file-size limit (`ulimit -f`) raises SIGXFSZ,
+/// which kills the process where it stands, leaving its temporary file behind.
+/// Ignored, the write fails with an error instead, and the command's usual
+/// error path removes the temporary file and leaves any existing file whole.
+fn ignore_file_size_signal() {
+    #[cfg(unix)]
+    // SAFETY: setting a standard signal's disposition to "ignore" at start-up,
+    // before any other thread exists, has no other effect.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
     }
 }

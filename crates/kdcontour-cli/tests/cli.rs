@@ -669,3 +669,36 @@ fn a_far_level_camera_lays_out_the_top_level() {
     // 8,8,8 level-0 chunks are 2,2,2 of level 2.
     assert_eq!(counts, [8, 8, 8]);
 }
+
+/// A write past the file-size limit (`ulimit -f`) ends in an error naming the
+/// file, the existing file stays whole, and no temporary file is left behind.
+#[cfg(unix)]
+#[test]
+fn a_write_past_the_file_size_limit_is_an_error_and_leaves_the_old_file() {
+    let dir = std::env::temp_dir().join(format!("kdcontour-cli-fsize-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("sphere.obj");
+    std::fs::write(&path, b"the old mesh").unwrap();
+    // 64 blocks of 512 bytes: far less than a sphere at res 64 as text.
+    let script = format!(
+        "ulimit -f 64 && exec \"$0\" mesh --scene sphere --res 64 --threshold -1 --out \"{}\"",
+        path.display()
+    );
+    let out = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(&script)
+        .arg(env!("CARGO_BIN_EXE_kdcontour"))
+        .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+        .output()
+        .expect("runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("sphere.obj"), "{err}");
+    assert_eq!(std::fs::read(&path).unwrap(), b"the old mesh");
+    let names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names.len(), 1, "{names:?}");
+    std::fs::remove_dir_all(&dir).ok();
+}
