@@ -15,7 +15,9 @@ pub struct Phantom {
     out: PathBuf,
     /// Each voxel holds its partial volume (the density averaged over it, as a
     /// scanner measures it) instead of the density at its center: the skull is
-    /// smooth between voxels, at iso 1.3 (whole from about 96 voxels).
+    /// smooth between voxels, at iso 1.3 (whole from about 96 voxels). The iso
+    /// printed is always one the file's voxels hold (lower on scans too coarse
+    /// to reach 1.3).
     #[arg(long)]
     scanned: bool,
     #[command(flatten)]

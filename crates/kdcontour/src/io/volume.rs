@@ -285,7 +285,11 @@ fn coverage(r: Vec3, axes: Vec3, step: f32) -> f32 {
 /// `n` is at least 2 (smaller values are raised to 2, the fewest voxels a volume
 /// has per axis).
 pub fn phantom(n: u32) -> SampledVolume {
-    shepp_logan(n, false)
+    let vol = shepp_logan(n, false);
+    SampledVolume {
+        iso: skull_iso(&vol.data, 1.5),
+        ..vol
+    }
 }
 
 /// [`phantom`] as a scanner measures it: each voxel holds the density averaged
@@ -300,15 +304,42 @@ pub fn phantom(n: u32) -> SampledVolume {
 /// is thinnest no voxel is all bone: its iso value is 1.3, not 1.5, where the
 /// skull is whole (two closed surfaces, Euler characteristic 4) at 96 and 128
 /// voxels; at 64 it needs 1.2, and below that a coarse scan's holes remain.
+/// Scans too coarse for any voxel to reach 1.3 come with a lower iso their
+/// voxels hold (see `skull_iso`).
 pub fn phantom_scanned(n: u32) -> SampledVolume {
+    let vol = shepp_logan(n, true);
     SampledVolume {
-        iso: PHANTOM_SCANNED_ISO,
-        ..shepp_logan(n, true)
+        iso: skull_iso(&vol.data, PHANTOM_SCANNED_ISO),
+        ..vol
     }
 }
 
-/// The iso value of [`phantom_scanned`]'s skull.
+/// The iso value of [`phantom_scanned`]'s skull where its voxels reach it.
 pub const PHANTOM_SCANNED_ISO: f32 = 1.3;
+
+/// The brain's density in the phantom (the skull's 2 less 0.98).
+const PHANTOM_BRAIN: f32 = 1.02;
+
+/// The phantom's iso value, derived from its own voxels: `preferred` where some
+/// voxel is denser (a whole or partial skull voxel); in a scan so coarse that
+/// no voxel is, halfway from the brain's density to the densest voxel (the
+/// skull as far as the scan saw it) or, where not even that stands above the
+/// brain, halfway from the least dense voxel to the densest (the head). So
+/// meshing a written phantom at its printed iso always finds a surface.
+fn skull_iso(data: &[f32], preferred: f32) -> f32 {
+    let (lo, hi) = data
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
+    if hi > preferred {
+        preferred
+    } else if hi > PHANTOM_BRAIN + 0.05 {
+        (PHANTOM_BRAIN + hi) / 2.0
+    } else {
+        (lo + hi) / 2.0
+    }
+}
 
 /// [`phantom`] or, with `partial`, [`phantom_scanned`].
 fn shepp_logan(n: u32, partial: bool) -> SampledVolume {
