@@ -702,3 +702,23 @@ fn a_write_past_the_file_size_limit_is_an_error_and_leaves_the_old_file() {
     assert_eq!(names.len(), 1, "{names:?}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Threads the system will not start (under a memory limit) are a clear error
+/// that says what to do, not an operating system's message alone.
+#[cfg(target_os = "linux")]
+#[test]
+fn threads_the_system_refuses_are_a_clear_error() {
+    // 1 GiB of address space: the command runs, 1,024 thread stacks do not fit.
+    let script = "ulimit -v 1048576 && exec \"$0\" mesh --scene sphere --res 16 --threads 1024";
+    let out = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(script)
+        .arg(env!("CARGO_BIN_EXE_kdcontour"))
+        .output()
+        .expect("runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("would not start 1024 worker threads"), "{err}");
+    assert!(err.contains("ask for fewer"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+}

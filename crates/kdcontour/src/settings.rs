@@ -98,7 +98,9 @@ impl Settings {
                 Some(p) => Ok(p.install(f)),
                 None => Err(Error::InvalidSetting {
                     name: "threads",
-                    reason: "could not start a worker thread".into(),
+                    reason: "the system would not start one worker thread: its limits on \
+                             memory or processes are too low"
+                        .into(),
                 }),
             });
         }
@@ -107,7 +109,11 @@ impl Settings {
             .build()
             .map_err(|e| Error::InvalidSetting {
                 name: "threads",
-                reason: e.to_string(),
+                reason: format!(
+                    "the system would not start {} worker threads ({e}): its limits on \
+                     memory or processes are too low for them; ask for fewer (0 uses one per core)",
+                    self.threads
+                ),
             })?;
         Ok(pool.install(f))
     }
