@@ -174,3 +174,66 @@ fn a_large_budget_is_taken_and_the_normal_cases_pass() {
         assert_eq!(code, 0, "{args:?}: {err}");
     }
 }
+
+/// A budget larger than the machine can give is held to what it can: a build
+/// or load that would not fit is an error naming the limit, not an abort
+/// (`memory allocation of ... failed`, signal 6).
+#[cfg(target_os = "linux")]
+#[test]
+fn budgets_above_the_machine_end_in_an_error_not_an_abort() {
+    let dir = std::env::temp_dir().join(format!("kdcontour-machine-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let nii = dir.join("p.nii");
+    let cases: [&[&str]; 3] = [
+        &[
+            "mesh",
+            "--scene",
+            "sphere",
+            "--res",
+            "1000",
+            "--memory-budget",
+            "1000TB",
+        ],
+        &[
+            "phantom",
+            "--res",
+            "1024",
+            "--memory-budget",
+            "16GiB",
+            "--out",
+            nii.to_str().unwrap(),
+        ],
+        &[
+            "world",
+            "--scene",
+            "torus",
+            "--chunk-res",
+            "2000",
+            "--chunks",
+            "2,2,2",
+            "--thresholds",
+            "random:1",
+            "--memory-budget",
+            "1000TB",
+        ],
+    ];
+    for args in cases {
+        // 2 GiB of address space: each of these needs far more.
+        let out = std::process::Command::new("sh")
+            .arg("-c")
+            .arg("ulimit -v 2097152 && exec \"$0\" \"$@\"")
+            .arg(env!("CARGO_BIN_EXE_kdcontour"))
+            .args(args)
+            .output()
+            .expect("runs");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains("more than this machine can give now"),
+            "{args:?}: {err}"
+        );
+        assert!(err.contains("ulimit -v"), "{args:?}: {err}");
+    }
+    assert!(!nii.exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -142,6 +142,9 @@ impl fmt::Display for Budget {
 
 /// Refuses `needed` bytes for `what` when they exceed `budget` (a [`Budget`] or
 /// bytes), before anything is allocated ([`Error::TooLarge`]).
+/// Within the budget, `needed` is also held to what the machine can give
+/// ([`machine_limit`], [`Error::MachineMemory`]): a budget larger than the
+/// machine's memory ends in an error, not an aborted process.
 pub fn check_budget(what: impl Into<String>, needed: u64, budget: impl Into<u64>) -> Result<()> {
     let budget = budget.into();
     if needed > budget {
@@ -151,7 +154,75 @@ pub fn check_budget(what: impl Into<String>, needed: u64, budget: impl Into<u64>
             budget,
         });
     }
-    Ok(())
+    check_machine(what, needed)
+}
+
+/// Refuses `needed` bytes for `what` when they are more than the machine can
+/// give now ([`machine_limit`]); only large requests (over 64 MiB) read it.
+pub fn check_machine(what: impl Into<String>, needed: u64) -> Result<()> {
+    if needed <= 64 << 20 {
+        return Ok(());
+    }
+    match machine_limit() {
+        Some((available, limit)) if needed > available => Err(Error::MachineMemory {
+            what: what.into(),
+            needed,
+            available,
+            limit,
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// What this machine can give the process now, in bytes, and what sets it: the
+/// least of the memory available plus free swap (`/proc/meminfo`), the
+/// address-space limit less what the process maps (`ulimit -v`), and its
+/// control group's memory limit less its use. `None` where none can be read
+/// (other systems than Linux).
+pub fn machine_limit() -> Option<(u64, &'static str)> {
+    let read = |path: &str| std::fs::read_to_string(path).ok();
+    let limits = [
+        read("/proc/meminfo")
+            .and_then(|t| meminfo_available(&t))
+            .map(|b| (b, "the memory available and free swap")),
+        read("/proc/self/limits")
+            .and_then(|t| address_space_limit(&t))
+            .zip(read("/proc/self/status").and_then(|t| kib_field(&t, "VmSize:")))
+            .map(|(limit, used)| {
+                (
+                    limit.saturating_sub(used),
+                    "the process's address-space limit, ulimit -v",
+                )
+            }),
+        read("/sys/fs/cgroup/memory.max")
+            .and_then(|t| t.trim().parse::<u64>().ok())
+            .zip(read("/sys/fs/cgroup/memory.current").and_then(|t| t.trim().parse::<u64>().ok()))
+            .map(|(max, used)| (max.saturating_sub(used), "the control group's memory limit")),
+    ];
+    limits.into_iter().flatten().min_by_key(|l| l.0)
+}
+
+/// `MemAvailable` plus `SwapFree` of a `/proc/meminfo` text, in bytes.
+fn meminfo_available(text: &str) -> Option<u64> {
+    Some(kib_field(text, "MemAvailable:")? + kib_field(text, "SwapFree:").unwrap_or(0))
+}
+
+/// The value in bytes of the `name  123 kB` line of a `/proc` text.
+fn kib_field(text: &str, name: &str) -> Option<u64> {
+    let line = text.lines().find(|l| l.starts_with(name))?;
+    let kib: u64 = line[name.len()..].split_whitespace().next()?.parse().ok()?;
+    kib.checked_mul(1024)
+}
+
+/// The soft "Max address space" of a `/proc/self/limits` text, in bytes
+/// (`None` when unlimited).
+fn address_space_limit(text: &str) -> Option<u64> {
+    let line = text.lines().find(|l| l.starts_with("Max address space"))?;
+    line["Max address space".len()..]
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
 }
 
 #[cfg(test)]
@@ -175,6 +246,32 @@ mod tests {
         ] {
             assert_eq!(Budget::parse(text), Ok(Budget::bytes(bytes)), "{text}");
             assert_eq!(text.parse::<Budget>(), Ok(Budget::bytes(bytes)), "{text}");
+        }
+    }
+
+    #[test]
+    fn the_machine_limit_reads_proc_texts() {
+        let meminfo = "MemTotal:       24000000 kB\nMemFree:  100 kB\nMemAvailable:   20000000 kB\nSwapTotal: 0 kB\nSwapFree:        1000 kB\n";
+        assert_eq!(meminfo_available(meminfo), Some(20_001_000 * 1024));
+        assert_eq!(meminfo_available("MemTotal: 5 kB\n"), None);
+        let limits = "Limit                     Soft Limit           Hard Limit           Units\n\
+                      Max stack size            8388608              unlimited            bytes\n\
+                      Max address space         1073741824           unlimited            bytes\n";
+        assert_eq!(address_space_limit(limits), Some(1 << 30));
+        let unlimited =
+            "Max address space         unlimited            unlimited            bytes\n";
+        assert_eq!(address_space_limit(unlimited), None);
+        assert_eq!(kib_field("VmSize:\t  2048 kB\n", "VmSize:"), Some(2 << 20));
+        // Small requests never read the machine; huge ones on Linux are refused.
+        assert!(check_machine("a small thing", 1 << 20).is_ok());
+        if let Some((available, _)) = machine_limit() {
+            let e = check_machine("a test", available.saturating_add(1 << 30)).unwrap_err();
+            assert!(matches!(e, Error::MachineMemory { .. }), "{e:?}");
+            assert!(
+                e.to_string()
+                    .contains("more than this machine can give now"),
+                "{e}"
+            );
         }
     }
 

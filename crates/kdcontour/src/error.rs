@@ -54,6 +54,24 @@ pub enum Error {
         /// The configured budget.
         budget: u64,
     },
+    /// Within the memory budget, but more than this machine can give the
+    /// process now (its free memory and swap, its address-space limit or its
+    /// control group's limit): the allocation would abort the process.
+    #[error(
+        "{what} needs about {needed_size} ({needed} bytes), more than this machine can \
+         give now ({available_size}: {limit}); use a smaller input, or free memory",
+        needed_size = Size(*needed), available_size = Size(*available)
+    )]
+    MachineMemory {
+        /// What would be too large.
+        what: String,
+        /// Estimated bytes it needs.
+        needed: u64,
+        /// Bytes the machine can give.
+        available: u64,
+        /// What sets that limit, in a user's words.
+        limit: &'static str,
+    },
     /// A setting is outside its allowed range.
     #[error("invalid setting `{name}`: {reason}")]
     InvalidSetting {

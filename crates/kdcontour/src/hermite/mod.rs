@@ -138,7 +138,10 @@ pub fn check_grid(grid: &Grid, settings: &Settings) -> Result<()> {
             budget: settings.memory_budget.get(),
         });
     }
-    Ok(())
+    crate::budget::check_machine(
+        format!("a grid of {} cells and its tree", grid.cell_count()),
+        needed,
+    )
 }
 
 impl Hermite {
