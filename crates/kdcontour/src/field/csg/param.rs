@@ -9,6 +9,11 @@ use glam::Vec3;
 /// takes.
 const MIN_LENGTH: f32 = 1e-6;
 
+/// Whether a length (or NaN) is shorter than [`MIN_LENGTH`].
+fn too_short(length: f32) -> bool {
+    length.is_nan() || length < MIN_LENGTH
+}
+
 /// The range a field must lie in. A vector is checked as a whole against
 /// [`Range::Finite`] and [`Range::NonZero`], and component by component (named
 /// `field.x`, `field.y`, `field.z`) against the others.
@@ -88,7 +93,7 @@ impl Param {
             (Value::Vector(v), Range::Finite) if !v.is_finite() => {
                 fault(self.field.into(), format!("must be finite, got {v}"))
             }
-            (Value::Vector(v), Range::NonZero) if !(safe_length(v) >= MIN_LENGTH) => fault(
+            (Value::Vector(v), Range::NonZero) if too_short(safe_length(v)) => fault(
                 self.field.into(),
                 format!("must not be zero (length at least {MIN_LENGTH}), got {v}"),
             ),
@@ -128,7 +133,7 @@ impl Range {
             }
             Range::Finite => (!v.is_finite()).then(|| format!("must be finite, got {v}")),
             Range::FiniteUnquoted => (!v.is_finite()).then(|| "must be finite".to_string()),
-            Range::NonZero => (!(v.abs() >= MIN_LENGTH))
+            Range::NonZero => too_short(v.abs())
                 .then(|| format!("must not be zero (at least {MIN_LENGTH} in size), got {v}")),
         }
     }
