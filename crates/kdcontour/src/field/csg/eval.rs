@@ -7,8 +7,18 @@ use glam::Vec3;
 
 /// Polynomial smooth minimum of `(a, ga)` and `(b, gb)` over radius `k` (iq). The
 /// returned gradient is exact: the blend terms' derivatives cancel.
+///
+/// Where one operand is `k` or more below the other, the blend is that operand,
+/// exactly (the formula's rounding would move it): so a child whose bound puts
+/// it `k` above the running value can be skipped without changing a bit.
 fn smin(a: (f32, Vec3), b: (f32, Vec3), k: f32) -> (f32, Vec3) {
     let h = (0.5 + 0.5 * (b.0 - a.0) / k).clamp(0.0, 1.0);
+    if h == 1.0 {
+        return a;
+    }
+    if h == 0.0 {
+        return b;
+    }
     let d = b.0 + (a.0 - b.0) * h - k * h * (1.0 - h);
     (d, b.1.lerp(a.1, h))
 }
@@ -82,17 +92,35 @@ impl Node {
                     a
                 }
             }
-            Op::SmoothUnion(k, ch) => ch
-                .iter()
-                .map(|c| c.eval(p))
-                .reduce(|a, b| smin(a, b, *k))
-                .unwrap(),
+            Op::SmoothUnion(k, ch) => {
+                // A child at least `k` above the running value leaves it as it
+                // is (see `smin`), as a union's far child does.
+                let (first, rest) = ch.split_first().expect("checked: a child at least");
+                let mut r = first.eval(p);
+                for c in rest {
+                    if let Some(b) = c.bound {
+                        if b.lower(p) >= r.0 + *k {
+                            continue;
+                        }
+                    }
+                    r = smin(r, c.eval(p), *k);
+                }
+                r
+            }
             Op::SmoothIntersection(k, ch) => neg(ch
                 .iter()
                 .map(|c| neg(c.eval(p)))
                 .reduce(|a, b| smin(a, b, *k))
                 .unwrap()),
-            Op::SmoothDifference(k, a, b) => neg(smin(neg(a.eval(p)), b.eval(p), *k)),
+            Op::SmoothDifference(k, a, b) => {
+                let a = neg(a.eval(p));
+                if let Some(bb) = b.bound {
+                    if bb.lower(p) >= a.0 + *k {
+                        return neg(a);
+                    }
+                }
+                neg(smin(a, b.eval(p), *k))
+            }
             Op::Transform {
                 inv_rot,
                 rot,
@@ -248,6 +276,72 @@ mod tests {
     use crate::field::csg::CsgNode;
     use crate::field::Field;
     use glam::Vec3;
+
+    /// Skipping far children of a smooth union (and a smooth difference's far
+    /// `b`) changes no bit of the value or gradient: the pruned tree equals the
+    /// plain left fold of every child.
+    #[test]
+    fn smooth_unions_skip_far_children_exactly() {
+        let children: Vec<String> = (0..60)
+            .map(|i| {
+                let t = i as f32 * 0.9;
+                let c = Vec3::new(t.sin(), (1.3 * t).cos(), (0.7 * t).sin()) * 0.8;
+                format!(
+                    r#"{{"type":"sphere","radius":{},"center":[{},{},{}]}}"#,
+                    0.05 + 0.002 * i as f32,
+                    c.x,
+                    c.y,
+                    c.z
+                )
+            })
+            .collect();
+        let k = 0.04;
+        let union = CsgNode::from_json(&format!(
+            r#"{{"type":"smooth_union","radius":{k},"children":[{}]}}"#,
+            children.join(",")
+        ))
+        .unwrap()
+        .compile()
+        .unwrap();
+        let parts: Vec<_> = children
+            .iter()
+            .map(|c| CsgNode::from_json(c).unwrap().compile().unwrap())
+            .collect();
+        let diff = CsgNode::from_json(&format!(
+            r#"{{"type":"smooth_difference","radius":{k},"a":{{"type":"box","half_extents":[0.7,0.7,0.7]}},"b":{}}}"#,
+            children[3]
+        ))
+        .unwrap()
+        .compile()
+        .unwrap();
+        let (a, b) = (
+            CsgNode::from_json(r#"{"type":"box","half_extents":[0.7,0.7,0.7]}"#)
+                .unwrap()
+                .compile()
+                .unwrap(),
+            &parts[3],
+        );
+        let mut skipped_any = false;
+        for i in 0..3000 {
+            let t = i as f32 * 0.618;
+            let p = (Vec3::new(t, t * 0.414, t * 0.732).fract() - 0.5) * 2.0;
+            let naive = parts
+                .iter()
+                .map(|c| c.root.eval(p))
+                .reduce(|x, y| super::smin(x, y, k))
+                .unwrap();
+            let got = union.root.eval(p);
+            assert_eq!(got.0.to_bits(), naive.0.to_bits(), "{p}");
+            assert_eq!(got.1, naive.1, "{p}");
+            assert_eq!(union.value(p).to_bits(), naive.0.to_bits(), "{p}");
+            let plain = super::neg(super::smin(super::neg(a.root.eval(p)), b.root.eval(p), k));
+            let got = diff.root.eval(p);
+            assert_eq!(got.0.to_bits(), plain.0.to_bits(), "{p}");
+            assert_eq!(got.1, plain.1, "{p}");
+            skipped_any |= parts.iter().any(|c| c.value(p) > naive.0 + 2.0 * k);
+        }
+        assert!(skipped_any);
+    }
 
     #[test]
     fn smooth_gradients_match_differences() {
