@@ -447,3 +447,44 @@ fn seams_belong_to_their_finest_chunk() {
         }
     }
 }
+
+/// The memory budget holds what a level world actually retains as it builds,
+/// not only its bookkeeping: a budget below what the world retains stops the
+/// build with a clear error before it is exceeded, and one above it builds the
+/// same world as no budget does.
+#[test]
+fn a_level_world_stops_at_its_memory_budget() {
+    let field = scenes::scene("gyroid").unwrap().field;
+    let layout = random_layout(5);
+    let cell = 2.0 / (REGION as u32 * RES) as f32;
+    let full = level_world(field.as_ref(), layout.clone(), Settings::default());
+    let retained = full.retained_bytes() as u64;
+    let grid = full.chunk_grid(&full.chunks()[0]);
+    let per_build = kdcontour::hermite::estimate_bytes(&grid);
+    for threads in [1, 2] {
+        // Room for the builds in flight and half of the trees.
+        let budget = retained / 2 + per_build * threads as u64;
+        let settings = Settings {
+            threads,
+            memory_budget: kdcontour::Budget::bytes(budget),
+            ..Settings::default()
+        };
+        let mut w =
+            World::new(Vec3::splat(-1.0), cell, RES, layout.clone(), 0.01, settings).unwrap();
+        let e = w.build_all(field.as_ref()).unwrap_err();
+        assert!(matches!(e, kdcontour::Error::TooLarge { .. }), "{e:?}");
+        assert!(e.to_string().contains("built"), "{e}");
+        assert!(
+            (w.retained_bytes() as u64) <= budget,
+            "{} > {budget}",
+            w.retained_bytes()
+        );
+        assert!(!w.stale().is_empty());
+    }
+    let settings = Settings {
+        memory_budget: kdcontour::Budget::bytes(retained + 8 * per_build),
+        ..Settings::default()
+    };
+    let roomy = level_world(field.as_ref(), layout, settings);
+    assert_eq!(roomy.retained_bytes() as u64, retained);
+}

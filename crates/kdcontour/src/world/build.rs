@@ -76,24 +76,65 @@ impl World {
     }
 
     /// Builds the chunks in `keys` (in parallel over chunks).
+    ///
+    /// The memory budget holds what the world actually retains: chunks are
+    /// built a few at a time (twice as many as run at once), and before each
+    /// batch the trees and samples retained so far, plus the estimate
+    /// ([`crate::hermite::estimate_bytes`]) of each build that runs at once,
+    /// must fit; a world that outgrows its budget stops with
+    /// [`crate::Error::TooLarge`] (the chunks built so far are kept).
     pub fn build(&mut self, keys: &[ChunkKey], field: &dyn Field) -> Result<()> {
         use rayon::prelude::*;
         let inner = Settings {
             threads: 0,
             ..self.settings.clone()
         };
-        let builds: Vec<ChunkBuild> = keys
-            .iter()
-            .map(|k| ChunkBuild {
-                settings: inner.clone(),
-                ..self.chunk_build(k)
-            })
-            .collect();
-        let built: Vec<Result<BuiltChunk>> = self
-            .settings
-            .run(|| builds.par_iter().map(|b| b.build(field)).collect())?;
-        for (b, t) in builds.iter().zip(built) {
-            self.insert_built(b, t?);
+        // At most `threads` builds run at once; a batch twice that keeps every
+        // thread busy while the trees it adds are counted soon after.
+        let threads = self.settings.run(rayon::current_num_threads)?.max(1);
+        let batch = threads * 2;
+        let budget = self.settings.memory_budget;
+        let slot_bytes = |s: &super::Slot| {
+            s.tree.as_ref().map_or(0, |t| t.retained_bytes())
+                + s.samples
+                    .as_ref()
+                    .map_or(0, |v| std::mem::size_of_val(&**v))
+        };
+        let mut retained = self.retained_bytes() as u64;
+        for (done, part) in keys.chunks(batch).enumerate() {
+            let builds: Vec<ChunkBuild> = part
+                .iter()
+                .map(|k| ChunkBuild {
+                    settings: inner.clone(),
+                    ..self.chunk_build(k)
+                })
+                .collect();
+            let transient = builds
+                .iter()
+                .map(|b| crate::hermite::estimate_bytes(&b.grid))
+                .max()
+                .unwrap_or(0)
+                .saturating_mul(threads.min(builds.len()) as u64);
+            crate::budget::check_budget(
+                format!(
+                    "a world of {} chunks of {}^3 cells, with {} built ({} retained)",
+                    keys.len(),
+                    self.chunk_res,
+                    done * batch,
+                    crate::error::Size(retained),
+                ),
+                retained.saturating_add(transient),
+                budget,
+            )?;
+            let built: Vec<Result<BuiltChunk>> = self
+                .settings
+                .run(|| builds.par_iter().map(|b| b.build(field)).collect())?;
+            for (b, t) in builds.iter().zip(built) {
+                let before = self.slots.get(&b.key).map_or(0, slot_bytes);
+                self.insert_built(b, t?);
+                let after = self.slots.get(&b.key).map_or(0, slot_bytes);
+                retained = (retained + after as u64).saturating_sub(before as u64);
+            }
         }
         Ok(())
     }
