@@ -78,21 +78,24 @@ impl World {
     /// Builds the chunks in `keys` (in parallel over chunks).
     ///
     /// The memory budget holds what the world actually retains: chunks are
-    /// built a few at a time (twice as many as run at once), and before each
-    /// batch the trees and samples retained so far, plus the estimate
+    /// built in batches (16 per thread), and before each batch the trees and
+    /// samples retained so far, the estimate
     /// ([`crate::hermite::estimate_bytes`]) of each build that runs at once,
-    /// must fit; a world that outgrows its budget stops with
-    /// [`crate::Error::TooLarge`] (the chunks built so far are kept).
+    /// and the batch's trees at the mean size of those built so far must fit;
+    /// a world that outgrows its budget stops with [`crate::Error::TooLarge`]
+    /// (the chunks built so far are kept).
     pub fn build(&mut self, keys: &[ChunkKey], field: &dyn Field) -> Result<()> {
         use rayon::prelude::*;
         let inner = Settings {
             threads: 0,
             ..self.settings.clone()
         };
-        // At most `threads` builds run at once; a batch twice that keeps every
-        // thread busy while the trees it adds are counted soon after.
+        // At most `threads` builds run at once; a batch of many keeps every
+        // thread busy (chunks differ in cost), and the trees it will add are
+        // counted ahead at the mean of the trees built so far.
         let threads = self.settings.run(rayon::current_num_threads)?.max(1);
-        let batch = threads * 2;
+        let batch = threads * 16;
+        let (mut added, mut built_count) = (0u64, 0u64);
         let budget = self.settings.memory_budget;
         let slot_bytes = |s: &super::Slot| {
             s.tree.as_ref().map_or(0, |t| t.retained_bytes())
@@ -114,7 +117,8 @@ impl World {
                 .map(|b| crate::hermite::estimate_bytes(&b.grid))
                 .max()
                 .unwrap_or(0)
-                .saturating_mul(threads.min(builds.len()) as u64);
+                .saturating_mul(threads.min(builds.len()) as u64)
+                .saturating_add((added / built_count.max(1)).saturating_mul(builds.len() as u64));
             crate::budget::check_budget(
                 format!(
                     "a world of {} chunks of {}^3 cells, with {} built ({} retained)",
@@ -134,6 +138,8 @@ impl World {
                 self.insert_built(b, t?);
                 let after = self.slots.get(&b.key).map_or(0, slot_bytes);
                 retained = (retained + after as u64).saturating_sub(before as u64);
+                added += after as u64;
+                built_count += 1;
             }
         }
         Ok(())
