@@ -9,6 +9,12 @@ use crate::field::terrain;
 impl CsgNode {
     /// Checks every value in the tree; the error names the first bad node's path.
     pub fn check(&self, path: &str) -> Result<(), SceneError> {
+        self.check_scaled(path, 1.0)
+    }
+
+    /// [`CsgNode::check`] of a node under transforms whose scales multiply to
+    /// `scaled`.
+    fn check_scaled(&self, path: &str, scaled: f64) -> Result<(), SceneError> {
         if let Some(primitive) = self.primitive() {
             return check_all(&primitive.params, path);
         }
@@ -22,17 +28,17 @@ impl CsgNode {
         };
         match self {
             CsgNode::Union { children } | CsgNode::Intersection { children } => {
-                check_children(children, path)
+                check_children(children, path, scaled)
             }
             CsgNode::SmoothUnion { radius, children }
             | CsgNode::SmoothIntersection { radius, children } => {
                 check_all(&[param("radius", *radius, Positive)], path)?;
-                check_children(children, path)
+                check_children(children, path, scaled)
             }
-            CsgNode::Difference { a, b } => check_pair(a, b, path),
+            CsgNode::Difference { a, b } => check_pair(a, b, path, scaled),
             CsgNode::SmoothDifference { radius, a, b } => {
                 check_all(&[param("radius", *radius, Positive)], path)?;
-                check_pair(a, b, path)
+                check_pair(a, b, path, scaled)
             }
             CsgNode::Transform {
                 translate,
@@ -51,9 +57,24 @@ impl CsgNode {
                 }
                 params.push(param("scale", *scale, Positive));
                 check_all(&params, path)?;
-                child.check(&format!("{path}.child"))
+                // A child's coordinates are the point's divided by the scales
+                // above it: past this range their squares under- or overflow
+                // f32, and a tiny sphere reads as inside everywhere.
+                let scaled = scaled * *scale as f64;
+                if !(MIN_SCALE..=MAX_SCALE).contains(&scaled) {
+                    return Err(SceneError::Semantic {
+                        path: format!("{path}.scale"),
+                        message: format!(
+                            "{scale} makes the scales from the root down to here multiply to \
+                             {scaled:e}; keep that product between {MIN_SCALE:e} and \
+                             {MAX_SCALE:e} (beyond, the child's coordinates under- or \
+                             overflow f32)"
+                        ),
+                    });
+                }
+                child.check_scaled(&format!("{path}.child"), scaled)
             }
-            CsgNode::Material { child, .. } => child.check(&format!("{path}.child")),
+            CsgNode::Material { child, .. } => child.check_scaled(&format!("{path}.child"), scaled),
             CsgNode::Heightfield(p) => noise(p.amplitude, p.frequency, p.octaves),
             CsgNode::Density(p) => {
                 noise(p.amplitude, p.frequency, p.octaves)?;
@@ -76,8 +97,14 @@ impl CsgNode {
     }
 }
 
-/// Checks the children of the node at `path` (at least one).
-fn check_children(children: &[CsgNode], path: &str) -> Result<(), SceneError> {
+/// The smallest product of nested transforms' scales a scene may hold.
+const MIN_SCALE: f64 = 1e-15;
+/// The largest product of nested transforms' scales a scene may hold.
+const MAX_SCALE: f64 = 1e15;
+
+/// Checks the children of the node at `path` (at least one), under scales
+/// multiplying to `scaled`.
+fn check_children(children: &[CsgNode], path: &str, scaled: f64) -> Result<(), SceneError> {
     if children.is_empty() {
         return Err(SceneError::Semantic {
             path: format!("{path}.children"),
@@ -85,15 +112,16 @@ fn check_children(children: &[CsgNode], path: &str) -> Result<(), SceneError> {
         });
     }
     for (i, c) in children.iter().enumerate() {
-        c.check(&format!("{path}.children[{i}]"))?;
+        c.check_scaled(&format!("{path}.children[{i}]"), scaled)?;
     }
     Ok(())
 }
 
-/// Checks the operands `a` and `b` of the difference at `path`.
-fn check_pair(a: &CsgNode, b: &CsgNode, path: &str) -> Result<(), SceneError> {
-    a.check(&format!("{path}.a"))?;
-    b.check(&format!("{path}.b"))
+/// Checks the operands `a` and `b` of the difference at `path`, under scales
+/// multiplying to `scaled`.
+fn check_pair(a: &CsgNode, b: &CsgNode, path: &str, scaled: f64) -> Result<(), SceneError> {
+    a.check_scaled(&format!("{path}.a"), scaled)?;
+    b.check_scaled(&format!("{path}.b"), scaled)
 }
 
 #[cfg(test)]
