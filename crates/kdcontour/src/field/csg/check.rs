@@ -16,7 +16,22 @@ impl CsgNode {
     /// `scaled`.
     fn check_scaled(&self, path: &str, scaled: f64) -> Result<(), SceneError> {
         if let Some(primitive) = self.primitive() {
-            return check_all(&primitive.params, path);
+            check_all(&primitive.params, path)?;
+            // A primitive's coordinates are the point's divided by the scales
+            // above it: past this range their squares under- or overflow f32,
+            // and a tiny sphere reads as inside everywhere (a huge one as
+            // outside). Noise nodes report a point beyond their reach instead.
+            if !(MIN_SCALE..=MAX_SCALE).contains(&scaled) {
+                return Err(SceneError::Semantic {
+                    path: path.to_string(),
+                    message: format!(
+                        "the transforms above it scale it by {scaled:e} in all; keep that \
+                         product of scales between {MIN_SCALE:e} and {MAX_SCALE:e} (beyond, \
+                         its coordinates under- or overflow f32)"
+                    ),
+                });
+            }
+            return Ok(());
         }
         let noise = |amplitude, frequency, octaves| {
             terrain::check_noise(amplitude, frequency, octaves).map_err(|(field, message)| {
@@ -57,21 +72,7 @@ impl CsgNode {
                 }
                 params.push(param("scale", *scale, Positive));
                 check_all(&params, path)?;
-                // A child's coordinates are the point's divided by the scales
-                // above it: past this range their squares under- or overflow
-                // f32, and a tiny sphere reads as inside everywhere.
                 let scaled = scaled * *scale as f64;
-                if !(MIN_SCALE..=MAX_SCALE).contains(&scaled) {
-                    return Err(SceneError::Semantic {
-                        path: format!("{path}.scale"),
-                        message: format!(
-                            "{scale} makes the scales from the root down to here multiply to \
-                             {scaled:e}; keep that product between {MIN_SCALE:e} and \
-                             {MAX_SCALE:e} (beyond, the child's coordinates under- or \
-                             overflow f32)"
-                        ),
-                    });
-                }
                 child.check_scaled(&format!("{path}.child"), scaled)
             }
             CsgNode::Material { child, .. } => child.check_scaled(&format!("{path}.child"), scaled),
@@ -97,9 +98,9 @@ impl CsgNode {
     }
 }
 
-/// The smallest product of nested transforms' scales a scene may hold.
+/// The smallest product of nested transforms' scales a primitive may be under.
 const MIN_SCALE: f64 = 1e-15;
-/// The largest product of nested transforms' scales a scene may hold.
+/// The largest product of nested transforms' scales a primitive may be under.
 const MAX_SCALE: f64 = 1e15;
 
 /// Checks the children of the node at `path` (at least one), under scales
