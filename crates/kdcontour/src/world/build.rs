@@ -97,12 +97,6 @@ impl World {
         let batch = threads * 16;
         let (mut added, mut built_count) = (0u64, 0u64);
         let budget = self.settings.memory_budget;
-        let slot_bytes = |s: &super::Slot| {
-            s.tree.as_ref().map_or(0, |t| t.retained_bytes())
-                + s.samples
-                    .as_ref()
-                    .map_or(0, |v| std::mem::size_of_val(&**v))
-        };
         let mut retained = self.retained_bytes() as u64;
         for (done, part) in keys.chunks(batch).enumerate() {
             let builds: Vec<ChunkBuild> = part
@@ -134,9 +128,15 @@ impl World {
                 .settings
                 .run(|| builds.par_iter().map(|b| b.build(field)).collect())?;
             for (b, t) in builds.iter().zip(built) {
-                let before = self.slots.get(&b.key).map_or(0, slot_bytes);
+                let before = self
+                    .slots
+                    .get(&b.key)
+                    .map_or(0, super::Slot::retained_bytes);
                 self.insert_built(b, t?);
-                let after = self.slots.get(&b.key).map_or(0, slot_bytes);
+                let after = self
+                    .slots
+                    .get(&b.key)
+                    .map_or(0, super::Slot::retained_bytes);
                 retained = (retained + after as u64).saturating_sub(before as u64);
                 added += after as u64;
                 built_count += 1;

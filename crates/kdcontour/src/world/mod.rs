@@ -112,6 +112,17 @@ struct Slot {
     samples: Option<Arc<[f32]>>,
 }
 
+impl Slot {
+    /// Bytes held by the chunk's tree and kept samples.
+    fn retained_bytes(&self) -> usize {
+        self.tree.as_ref().map_or(0, |t| t.retained_bytes())
+            + self
+                .samples
+                .as_ref()
+                .map_or(0, |v| std::mem::size_of_val(&**v))
+    }
+}
+
 /// A layout with every chunk's neighbourhood worked out, checked and ready to
 /// install with [`World::set_prepared`]: the costly part of a layout change,
 /// which can run on another thread.
@@ -554,15 +565,7 @@ impl World {
 
     /// Bytes held by all retained trees and kept samples.
     pub fn retained_bytes(&self) -> usize {
-        self.slots
-            .values()
-            .map(|s| {
-                s.tree.as_ref().map_or(0, |t| t.retained_bytes())
-                    + s.samples
-                        .as_ref()
-                        .map_or(0, |v| std::mem::size_of_val(&**v))
-            })
-            .sum()
+        self.slots.values().map(Slot::retained_bytes).sum()
     }
 }
 
