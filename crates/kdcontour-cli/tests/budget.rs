@@ -219,15 +219,8 @@ fn budgets_above_the_machine_end_in_an_error_not_an_abort() {
     ];
     for args in cases {
         // 2 GiB of address space: each of these needs far more.
-        let out = std::process::Command::new("sh")
-            .arg("-c")
-            .arg("ulimit -v 2097152 && exec \"$0\" \"$@\"")
-            .arg(env!("CARGO_BIN_EXE_kdcontour"))
-            .args(args)
-            .output()
-            .expect("runs");
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        let (code, _, err) = common::kdcontour_under("-v 2097152", args);
+        assert_eq!(code, 2, "{args:?}: {err}");
         assert!(
             err.contains("more than this machine can give now"),
             "{args:?}: {err}"

@@ -1,5 +1,7 @@
 //! The `kdcontour` command as a user runs it.
 
+mod common;
+
 use std::process::Command;
 
 fn kdcontour(args: &[&str]) -> (i32, String, String) {
@@ -672,7 +674,7 @@ fn a_far_level_camera_lays_out_the_top_level() {
 
 /// A write past the file-size limit (`ulimit -f`) ends in an error naming the
 /// file, the existing file stays whole, and no temporary file is left behind.
-#[cfg(unix)]
+#[cfg(target_os = "linux")]
 #[test]
 fn a_write_past_the_file_size_limit_is_an_error_and_leaves_the_old_file() {
     let dir = std::env::temp_dir().join(format!("kdcontour-cli-fsize-{}", std::process::id()));
@@ -680,19 +682,20 @@ fn a_write_past_the_file_size_limit_is_an_error_and_leaves_the_old_file() {
     let path = dir.join("sphere.obj");
     std::fs::write(&path, b"the old mesh").unwrap();
     // 64 blocks of 512 bytes: far less than a sphere at res 64 as text.
-    let script = format!(
-        "ulimit -f 64 && exec \"$0\" mesh --scene sphere --res 64 --threshold -1 --out \"{}\"",
-        path.display()
-    );
-    let out = std::process::Command::new("sh")
-        .arg("-c")
-        .arg(&script)
-        .arg(env!("CARGO_BIN_EXE_kdcontour"))
-        .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-        .output()
-        .expect("runs");
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
+    let out = path.to_str().unwrap();
+    let args = [
+        "mesh",
+        "--scene",
+        "sphere",
+        "--res",
+        "64",
+        "--threshold",
+        "-1",
+        "--out",
+        out,
+    ];
+    let (code, _, err) = common::kdcontour_under("-f 64", &args);
+    assert_eq!(code, 2, "{err}");
     assert!(err.contains("sphere.obj"), "{err}");
     assert_eq!(std::fs::read(&path).unwrap(), b"the old mesh");
     let names: Vec<_> = std::fs::read_dir(&dir)
@@ -709,15 +712,17 @@ fn a_write_past_the_file_size_limit_is_an_error_and_leaves_the_old_file() {
 #[test]
 fn threads_the_system_refuses_are_a_clear_error() {
     // 1 GiB of address space: the command runs, 1,024 thread stacks do not fit.
-    let script = "ulimit -v 1048576 && exec \"$0\" mesh --scene sphere --res 16 --threads 1024";
-    let out = std::process::Command::new("sh")
-        .arg("-c")
-        .arg(script)
-        .arg(env!("CARGO_BIN_EXE_kdcontour"))
-        .output()
-        .expect("runs");
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
+    let args = [
+        "mesh",
+        "--scene",
+        "sphere",
+        "--res",
+        "16",
+        "--threads",
+        "1024",
+    ];
+    let (code, _, err) = common::kdcontour_under("-v 1048576", &args);
+    assert_eq!(code, 2, "{err}");
     assert!(err.contains("would not start 1024 worker threads"), "{err}");
     assert!(err.contains("ask for fewer"), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");

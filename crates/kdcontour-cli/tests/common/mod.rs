@@ -32,10 +32,17 @@ pub const HANG: Duration = Duration::from_secs(20);
 /// space, which would count against the cap without being used). Fails if it
 /// runs past [`HANG`].
 pub fn kdcontour(args: &[&str]) -> (i32, String, String) {
+    kdcontour_under(&format!("-v {MAX_VM_KIB}"), args)
+}
+
+/// [`kdcontour`] under the shell limit `ulimit {limit}` (`-v KIB`: address
+/// space; `-f BLOCKS`: file size, in 512-byte blocks) instead of the default
+/// cap, on Linux; elsewhere without a limit.
+pub fn kdcontour_under(limit: &str, args: &[&str]) -> (i32, String, String) {
     let mut cmd = if cfg!(target_os = "linux") {
         let mut c = Command::new("sh");
         c.arg("-c")
-            .arg(format!("ulimit -v {MAX_VM_KIB} && exec \"$0\" \"$@\""))
+            .arg(format!("ulimit {limit} && exec \"$0\" \"$@\""))
             .arg(BIN)
             .env("RAYON_NUM_THREADS", "2")
             .env("MALLOC_ARENA_MAX", "2");
