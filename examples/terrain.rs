@@ -13,7 +13,8 @@
 //! Keys: WASD move, E / Space up, Q down, Shift faster, arrow keys or middle mouse
 //! drag to look. Left mouse adds ground, right mouse digs, the wheel sets the
 //! brush size; P switches the left button to painting (1 grass, 2 rock, 3 dirt,
-//! 4 snow) and back. L colours chunks by level (blue finest, red coarsest). V walks
+//! 4 snow) and back. Ctrl+Z takes back the last stroke, Ctrl+Shift+Z (or Ctrl+Y)
+//! puts it back. L colours chunks by level (blue finest, red coarsest). V walks
 //! (a capsule player with gravity on the terrain; Space jumps) or flies again.
 //! F1 hides the panel.
 //!
@@ -89,6 +90,9 @@ struct Sculpt {
     aim: Option<Vec3>,
     /// The material the left button paints, or `None` to add ground.
     paint: Option<u8>,
+    /// A button has been held since the last dab: the next one continues its
+    /// stroke (one undo takes the stroke back).
+    stroke: bool,
 }
 
 fn main() {
@@ -178,6 +182,7 @@ fn main() {
             common::fly_camera,
             common::walk::walk,
             sculpt,
+            undo_redo,
             brush_preview,
             scripted_edits,
             toggle_levels,
@@ -278,6 +283,7 @@ fn setup(
         cooldown: 0.0,
         aim: None,
         paint: None,
+        stroke: false,
     });
 }
 
@@ -337,6 +343,7 @@ fn sculpt(
     panel.extra = vec![
         format!("brush radius {:.1} (wheel)", sculpt.radius),
         format!("left: {left}   right: dig   P: paint / add"),
+        "Ctrl+Z: undo   Ctrl+Shift+Z: redo".to_string(),
     ];
     if panel.pointer_over {
         sculpt.aim = None;
@@ -361,16 +368,45 @@ fn sculpt(
     } else if buttons.pressed(MouseButton::Right) {
         (BrushOp::SmoothSubtract { radius: 1.5 }, terrain_ids::DIRT)
     } else {
+        sculpt.stroke = false;
         return;
     };
     let (Some(at), true) = (sculpt.aim, sculpt.cooldown <= 0.0) else {
         return;
     };
     sculpt.cooldown = 0.08;
-    edits.write(ApplyEdit {
-        volume: sculpt.volume,
-        brush: Brush::sphere(at, sculpt.radius, op).with_material(material),
+    let brush = Brush::sphere(at, sculpt.radius, op).with_material(material);
+    edits.write(if sculpt.stroke {
+        ApplyEdit::continuing(sculpt.volume, brush)
+    } else {
+        ApplyEdit::new(sculpt.volume, brush)
     });
+    sculpt.stroke = true;
+}
+
+/// Ctrl+Z takes back the last stroke, Ctrl+Shift+Z or Ctrl+Y puts it back.
+fn undo_redo(
+    keys: Res<ButtonInput<KeyCode>>,
+    sculpt: Res<Sculpt>,
+    mut undo: MessageWriter<UndoEdit>,
+    mut redo: MessageWriter<RedoEdit>,
+) {
+    let ctrl = keys.any_pressed([
+        KeyCode::ControlLeft,
+        KeyCode::ControlRight,
+        KeyCode::SuperLeft,
+        KeyCode::SuperRight,
+    ]);
+    if !ctrl {
+        return;
+    }
+    let shift = keys.any_pressed([KeyCode::ShiftLeft, KeyCode::ShiftRight]);
+    let volume = sculpt.volume;
+    if keys.just_pressed(KeyCode::KeyZ) && !shift {
+        undo.write(UndoEdit { volume });
+    } else if keys.just_pressed(KeyCode::KeyZ) || keys.just_pressed(KeyCode::KeyY) {
+        redo.write(RedoEdit { volume });
+    }
 }
 
 fn brush_preview(sculpt: Res<Sculpt>, mut gizmos: Gizmos) {
@@ -432,11 +468,10 @@ fn scripted_edits(
             continue;
         };
         if let Some(t) = raycast(state.field(), ray.origin, *ray.direction, 400.0, 0.5) {
-            edits.write(ApplyEdit {
-                volume: sculpt.volume,
-                brush: Brush::sphere(ray.origin + *ray.direction * t, r, op)
-                    .with_material(material),
-            });
+            edits.write(ApplyEdit::new(
+                sculpt.volume,
+                Brush::sphere(ray.origin + *ray.direction * t, r, op).with_material(material),
+            ));
         }
     }
 }

@@ -1,8 +1,10 @@
-//! Edits: [`EditsPlugin`] applies [`ApplyEdit`] brushes and [`ReplaceField`]
-//! swaps to each volume's edited field and queues a rebuild of exactly the
+//! Edits: [`EditsPlugin`] applies [`ApplyEdit`] brushes, [`UndoEdit`] and
+//! [`RedoEdit`] steps and [`ReplaceField`] swaps to each volume's edited field
+//! (its [`kdcontour::edit::EditHistory`]) and queues a rebuild of exactly the
 //! chunks they reach (in [`KdContourSystems::Edits`](crate::KdContourSystems::Edits)).
 
-use crate::messages::{ApplyEdit, EditApplied, ReplaceField};
+use crate::messages::{ApplyEdit, EditApplied, RedoEdit, ReplaceField, UndoEdit};
+use crate::settings::KdContourSettings;
 use crate::state::VolumeState;
 use crate::stats::MainThreadClock;
 use crate::volume::KdVolume;
@@ -10,7 +12,8 @@ use crate::KdContourStep;
 use bevy::prelude::*;
 use kdcontour::world::ChunkKey;
 
-/// Applies [`ApplyEdit`] and [`ReplaceField`] messages.
+/// Applies [`ApplyEdit`], [`UndoEdit`], [`RedoEdit`] and [`ReplaceField`]
+/// messages.
 pub struct EditsPlugin;
 
 impl Plugin for EditsPlugin {
@@ -20,11 +23,16 @@ impl Plugin for EditsPlugin {
     }
 }
 
-/// Field swaps first (they replay the edit log), then brushes in order.
+/// Field swaps first (they put the edit log on the new field), then brushes in
+/// order, then undos, then redos.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn apply_edits(
     mut edits: MessageReader<ApplyEdit>,
+    mut undos: MessageReader<UndoEdit>,
+    mut redos: MessageReader<RedoEdit>,
     mut replaced: MessageReader<ReplaceField>,
     mut applied: MessageWriter<EditApplied>,
+    settings: Res<KdContourSettings>,
     clock: Res<MainThreadClock>,
     mut volumes: Query<(&mut VolumeState, &mut KdVolume)>,
 ) {
@@ -35,13 +43,7 @@ pub(crate) fn apply_edits(
             continue;
         };
         let iso = state.base_iso();
-        if let Err(e) = state.swap_base(msg.field.0.clone(), iso) {
-            warn!(
-                "ReplaceField on {}: replaying the edits failed: {e}",
-                msg.volume
-            );
-            continue;
-        }
+        state.swap_base(msg.field.0.clone(), iso);
         // Keep the component in step (the volume subsystem then sees nothing to do).
         vol.field = msg.field.clone();
         let rebuilt = match &msg.regions {
@@ -66,19 +68,46 @@ pub(crate) fn apply_edits(
             warn!("ApplyEdit: {} is not a meshed volume", edit.volume);
             continue;
         };
-        let field = match state.field().with_edit(edit.brush.clone()) {
-            Ok(f) => f,
+        let brush = edit.brush.clone();
+        let steps = settings.undo_steps;
+        let (center, reach) = match state
+            .history_mut()
+            .apply(brush, edit.continues_stroke, steps)
+        {
+            Ok(r) => r,
             Err(e) => {
                 warn!("ApplyEdit on {}: {e}", edit.volume);
                 continue;
             }
         };
-        let (center, reach) = field.last_reach().expect("an edit was just added");
-        state.set_field(field);
         let rebuilt = state.rebuild_near(center, reach);
         applied.write(EditApplied {
             volume: edit.volume,
             rebuilt,
         });
+    }
+    let steps = undos
+        .read()
+        .map(|m| (m.volume, true))
+        .chain(redos.read().map(|m| (m.volume, false)));
+    for (volume, undo) in steps {
+        let Ok((mut state, _)) = volumes.get_mut(volume) else {
+            warn!("UndoEdit / RedoEdit: {volume} is not a meshed volume");
+            continue;
+        };
+        let history = state.history_mut();
+        let reaches = if undo { history.undo() } else { history.redo() };
+        let Some(reaches) = reaches else {
+            let what = if undo { "undo" } else { "redo" };
+            info!("KdVolume {volume}: nothing to {what}");
+            continue;
+        };
+        let mut rebuilt = Vec::new();
+        for (center, reach) in reaches {
+            rebuilt.extend(state.rebuild_near(center, reach));
+        }
+        rebuilt.sort_by_key(|c| c.order());
+        rebuilt.dedup();
+        applied.write(EditApplied { volume, rebuilt });
     }
 }

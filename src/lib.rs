@@ -40,7 +40,7 @@
 //! | `messages` | [`MessagesPlugin`] | registers every message |
 //! | `stats` | [`StatsPlugin`] | [`KdContourStats`]; the main-thread clock |
 //! | `volume` | [`VolumePlugin`] | [`KdVolume`], [`KdChunk`]; a [`VolumeState`] per volume; the system sets |
-//! | `edits` | [`EditsPlugin`] | [`ApplyEdit`], [`ReplaceField`] |
+//! | `edits` | [`EditsPlugin`] | [`ApplyEdit`], [`UndoEdit`], [`RedoEdit`], [`ReplaceField`] |
 //! | `streaming` | [`StreamingPlugin`] | loads and drops chunks around the camera; lays horizon volumes out in chunk levels (`horizon`) |
 //! | `lod` | [`LodPlugin`] | thresholds from the camera |
 //! | `tasks` | [`TasksPlugin`] | builds and extractions on the task pool |
@@ -115,7 +115,8 @@ pub use lod::LodPlugin;
 pub use material::{TerrainExtension, TerrainMaterial, TerrainMaterialPlugin, TerrainTextures};
 pub use mesh::to_bevy_mesh;
 pub use messages::{
-    ApplyEdit, ChunkFailed, ChunkMeshed, EditApplied, LodChanged, MessagesPlugin, ReplaceField,
+    ApplyEdit, ChunkFailed, ChunkMeshed, EditApplied, LodChanged, MessagesPlugin, RedoEdit,
+    ReplaceField, UndoEdit,
 };
 pub use persist::{EditsLoaded, EditsSaved, KdSave, PersistFailed, PersistPlugin};
 pub use plugins::{KdContourPlugin, KdContourPlugins};
@@ -136,8 +137,8 @@ pub mod prelude {
         ApplyEdit, ChunkFailed, ChunkMeshed, ChunkStatus, EditApplied, EditsLoaded, EditsSaved,
         KdChunk, KdContourPlugin, KdContourPlugins, KdContourSettings, KdContourStats,
         KdContourStep, KdContourSystems, KdSave, KdVolume, LodCamera, LodChanged, LodSettings,
-        PersistFailed, ReplaceField, SharedField, TerrainMaterial, TerrainMaterialPlugin,
-        TerrainTextures, VolumeExtent, VolumeMaterial, VolumeState,
+        PersistFailed, RedoEdit, ReplaceField, SharedField, TerrainMaterial, TerrainMaterialPlugin,
+        TerrainTextures, UndoEdit, VolumeExtent, VolumeMaterial, VolumeState,
     };
     pub use kdcontour::edit::{Brush, BrushOp};
     pub use kdcontour::world::ChunkKey;
@@ -147,7 +148,7 @@ pub mod prelude {
 /// transform propagation).
 #[derive(SystemSet, Debug, Hash, PartialEq, Eq, Clone)]
 pub enum KdContourSystems {
-    /// Applies [`ApplyEdit`] messages.
+    /// Applies [`ApplyEdit`], [`UndoEdit`] and [`RedoEdit`] messages.
     Edits,
     /// Streams chunks of unbounded volumes around the [`LodCamera`] and sets
     /// thresholds from its distance.
@@ -174,7 +175,8 @@ pub enum KdContourStep {
     /// In [`KdContourSystems::Edits`]: volumes whose field or iso changed swap
     /// their field and replay their edits.
     SyncVolumes,
-    /// In [`KdContourSystems::Edits`]: [`ApplyEdit`] messages are applied.
+    /// In [`KdContourSystems::Edits`]: [`ApplyEdit`], [`UndoEdit`] and
+    /// [`RedoEdit`] messages are applied.
     ApplyEdits,
     /// In [`KdContourSystems::Lod`]: the chunks to load, drop or give colliders
     /// are chosen.

@@ -1,4 +1,5 @@
-//! The messages the plugin reads ([`ApplyEdit`], [`ReplaceField`]) and writes
+//! The messages the plugin reads ([`ApplyEdit`], [`UndoEdit`], [`RedoEdit`],
+//! [`ReplaceField`]) and writes
 //! ([`EditApplied`], [`ChunkMeshed`], [`LodChanged`], [`ChunkFailed`]), and
 //! [`MessagesPlugin`], which registers them all, so any subsystem can be left
 //! out without the others losing a message type.
@@ -15,6 +16,49 @@ pub struct ApplyEdit {
     pub volume: Entity,
     /// The brush, in the volume's local space.
     pub brush: Brush,
+    /// This dab continues the stroke of the edit before it: one [`UndoEdit`]
+    /// takes back the whole stroke. A stroke ends at any undo or redo, and at
+    /// the next edit that does not continue it.
+    pub continues_stroke: bool,
+}
+
+impl ApplyEdit {
+    /// A brush that is its own undo step.
+    pub fn new(volume: Entity, brush: Brush) -> Self {
+        ApplyEdit {
+            volume,
+            brush,
+            continues_stroke: false,
+        }
+    }
+
+    /// A dab that continues the stroke before it (see
+    /// [`ApplyEdit::continues_stroke`]).
+    pub fn continuing(volume: Entity, brush: Brush) -> Self {
+        ApplyEdit {
+            continues_stroke: true,
+            ..ApplyEdit::new(volume, brush)
+        }
+    }
+}
+
+/// Take back a volume's last edit (a stroke counts as one), re-meshing only
+/// the chunks it reached. Within one frame a volume's messages run in this
+/// order: its [`ApplyEdit`]s, then its undos, then its redos. At most
+/// [`KdContourSettings::undo_steps`](crate::KdContourSettings::undo_steps) edits
+/// can be taken back.
+#[derive(Message, Clone, Copy, Debug)]
+pub struct UndoEdit {
+    /// The volume entity.
+    pub volume: Entity,
+}
+
+/// Put back the edit last taken back by [`UndoEdit`] (a new edit after an undo
+/// drops what could be put back).
+#[derive(Message, Clone, Copy, Debug)]
+pub struct RedoEdit {
+    /// The volume entity.
+    pub volume: Entity,
 }
 
 /// Replace a volume's field (the edit log is replayed on top of it). With
@@ -32,7 +76,8 @@ pub struct ReplaceField {
     pub regions: Option<Vec<(Vec3, f32)>>,
 }
 
-/// An edit (or a [`ReplaceField`]) was applied; these chunks are being rebuilt.
+/// An edit, an undo, a redo or a [`ReplaceField`] was applied; these chunks
+/// are being rebuilt.
 #[derive(Message, Clone, Debug)]
 pub struct EditApplied {
     /// The volume entity.
@@ -89,6 +134,8 @@ pub struct MessagesPlugin;
 impl Plugin for MessagesPlugin {
     fn build(&self, app: &mut App) {
         app.add_message::<ApplyEdit>()
+            .add_message::<UndoEdit>()
+            .add_message::<RedoEdit>()
             .add_message::<EditApplied>()
             .add_message::<ReplaceField>()
             .add_message::<ChunkMeshed>()

@@ -1,14 +1,16 @@
 //! An egui panel for the plugin (crate feature `egui`): counts, meshing times,
 //! the threshold and the LOD curve, the iso value, wireframe and LOD colouring,
-//! and (feature `avian`) the collider distance, threshold and layers.
+//! each edited volume's undo and redo, and (feature `avian`) the collider
+//! distance, threshold and layers.
 //!
 //! Add [`KdContourPanelPlugin`] after [`crate::KdContourPlugins`] (it adds
 //! `bevy_egui`'s `EguiPlugin` and Bevy's `WireframePlugin` when they are missing).
 //! It edits [`KdContourSettings`], every [`KdVolume`]'s `iso`, and Bevy's
-//! `WireframeConfig`; it reads [`KdContourStats`]. Examples add their own rows
+//! `WireframeConfig`; it reads [`KdContourStats`] and each [`VolumeState`]'s
+//! history, and writes [`UndoEdit`] and [`RedoEdit`]. Examples add their own rows
 //! through [`KdContourPanel::extra`] or draw their own windows.
 
-use crate::{KdContourSettings, KdContourStats, KdVolume};
+use crate::{KdContourSettings, KdContourStats, KdVolume, RedoEdit, UndoEdit, VolumeState};
 use bevy::diagnostic::{DiagnosticsStore, FrameTimeDiagnosticsPlugin};
 use bevy::pbr::wireframe::{WireframeConfig, WireframePlugin};
 use bevy::prelude::*;
@@ -119,6 +121,42 @@ fn layer_bits(ui: &mut egui::Ui, label: &str, mask: &mut u32) {
     });
 }
 
+/// A row per edited volume (at most four): its edits and undo / redo buttons.
+fn history_rows(
+    ui: &mut egui::Ui,
+    states: &Query<(Entity, &VolumeState)>,
+    undo: &mut MessageWriter<UndoEdit>,
+    redo: &mut MessageWriter<RedoEdit>,
+) {
+    let edited = states.iter().filter(|(_, s)| s.history().brush_count() > 0);
+    for (volume, state) in edited.take(4) {
+        let h = state.history();
+        ui.horizontal(|ui| {
+            ui.label(format!("{} edits", state.field().edit_count()));
+            let can_undo = h.undo_steps() > 0;
+            if ui
+                .add_enabled(
+                    can_undo,
+                    egui::Button::new(format!("undo ({})", h.undo_steps())),
+                )
+                .clicked()
+            {
+                undo.write(UndoEdit { volume });
+            }
+            let can_redo = h.redo_steps() > 0;
+            if ui
+                .add_enabled(
+                    can_redo,
+                    egui::Button::new(format!("redo ({})", h.redo_steps())),
+                )
+                .clicked()
+            {
+                redo.write(RedoEdit { volume });
+            }
+        });
+    }
+}
+
 // A Bevy system takes one parameter per resource it reads.
 #[allow(clippy::too_many_arguments)]
 fn draw_panel(
@@ -129,6 +167,9 @@ fn draw_panel(
     diagnostics: Option<Res<DiagnosticsStore>>,
     wireframe: Option<ResMut<WireframeConfig>>,
     mut volumes: Query<&mut KdVolume>,
+    states: Query<(Entity, &VolumeState)>,
+    mut undo: MessageWriter<UndoEdit>,
+    mut redo: MessageWriter<RedoEdit>,
     #[cfg(feature = "avian")] colliders: Option<ResMut<crate::ColliderSettings>>,
 ) -> Result {
     let ctx = contexts.ctx_mut()?;
@@ -186,6 +227,7 @@ fn draw_panel(
             for line in &panel.extra {
                 ui.label(line);
             }
+            history_rows(ui, &states, &mut undo, &mut redo);
             ui.separator();
             let s = &mut *settings;
             ui.checkbox(&mut s.lod.enabled, "camera LOD");

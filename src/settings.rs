@@ -69,6 +69,9 @@ pub struct KdContourSettings {
     /// subsystem (crate feature `debug`, which `egui` turns on); without it this
     /// setting does nothing.
     pub color_by_lod: bool,
+    /// How many edits (a stroke counts as one) [`crate::UndoEdit`] can take
+    /// back per volume; older ones are compacted when saved. 0: no undo.
+    pub undo_steps: usize,
 }
 
 impl Default for KdContourSettings {
@@ -80,6 +83,7 @@ impl Default for KdContourSettings {
             default_threshold: 0.01,
             lod: LodSettings::default(),
             color_by_lod: false,
+            undo_steps: 256,
         }
     }
 }

@@ -9,7 +9,7 @@ use crate::mesh::{ChunkExtra, MeshExtra};
 use crate::tasks::work::ChunkWork;
 use crate::volume::{ChunkStatus, KdChunk};
 use bevy::prelude::*;
-use kdcontour::edit::{Brush, EditedField};
+use kdcontour::edit::{Brush, EditHistory, EditedField};
 use kdcontour::world::{ChunkKey, ChunkMap, Layout};
 use kdcontour::{Field, World};
 use std::sync::Arc;
@@ -113,7 +113,8 @@ pub struct WorkCounts {
 #[derive(Component)]
 pub struct VolumeState {
     pub(crate) world: World,
-    field: EditedField,
+    /// The edited field, with its undo and redo steps.
+    history: EditHistory,
     /// Which of the volume's fields and isos the edits are layered on: the
     /// field's address (the field itself is the volume's, and the edited
     /// field's, which keeps it alive) and the iso; compared to notice a swap.
@@ -137,7 +138,7 @@ impl VolumeState {
         let base = (field_id(base.0), base.1);
         VolumeState {
             world,
-            field,
+            history: EditHistory::new(field),
             base,
             slots: ChunkMap::default(),
             focus: Vec3::ZERO,
@@ -163,24 +164,28 @@ impl VolumeState {
         &mut self.world
     }
 
-    /// The field with every edit applied so far.
+    /// The field with every edit applied so far (undone ones left out).
     pub fn field(&self) -> &EditedField {
-        &self.field
+        self.history.field()
     }
 
-    /// Replaces the field (the caller marks what to rebuild).
-    pub(crate) fn set_field(&mut self, field: EditedField) {
-        self.field = field;
+    /// The edits with their undo and redo steps.
+    pub fn history(&self) -> &EditHistory {
+        &self.history
+    }
+
+    /// The edits, to change (the caller marks what to rebuild).
+    pub(crate) fn history_mut(&mut self) -> &mut EditHistory {
+        &mut self.history
     }
 
     /// Puts the edit log back on a new base field and iso (the volume's field
-    /// was swapped): the edits are replayed on `field` shifted by `iso`, and the
-    /// caller marks what to rebuild. On an error nothing changes.
-    pub(crate) fn swap_base(&mut self, field: Arc<dyn Field>, iso: f32) -> kdcontour::Result<()> {
-        let log = self.field.log();
-        self.field = EditedField::replay(crate::volume::KdVolume::shifted(&field, iso), &log)?;
+    /// was swapped): the edits, applied and undone, are put on `field` shifted
+    /// by `iso`, and the caller marks what to rebuild.
+    pub(crate) fn swap_base(&mut self, field: Arc<dyn Field>, iso: f32) {
+        self.history
+            .rebase(crate::volume::KdVolume::shifted(&field, iso));
         self.base = (field_id(&field), iso);
-        Ok(())
     }
 
     /// Whether `field` and `iso` are the ones the edits are layered on.
@@ -204,9 +209,9 @@ impl VolumeState {
         self.stream_key.replace(key) != Some(key)
     }
 
-    /// The edit log, oldest first (serialisable with serde).
+    /// The edit log applied, oldest first (serialisable with serde).
     pub fn edit_log(&self) -> Vec<Brush> {
-        self.field.log()
+        self.history.field().log()
     }
 
     /// No work queued, running or waiting for upload, and no level change in

@@ -8,7 +8,7 @@
 //! | 4 | format version, little-endian `u32` |
 //! | 8 | payload length, little-endian `u64` |
 //! | 4 | CRC-32 of the payload, little-endian `u32` |
-//! | n | the payload: [`SaveData`] as CBOR |
+//! | n | the payload: [`SaveData`] as CBOR (the edits and their undo steps) |
 //!
 //! CBOR through `ciborium`: compact and binary (a brush is about 40 bytes, a
 //! third of its JSON), self-describing (a later version can still read this
@@ -22,7 +22,7 @@
 //! (`fsync`), renames it over the save and flushes the directory. A process
 //! killed at any point leaves either the old save or the new one, whole.
 
-use kdcontour::edit::Brush;
+use kdcontour::edit::{Brush, UndoSteps};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::io::Write;
@@ -44,8 +44,14 @@ pub struct SaveData {
     /// What the edits were made on: the base field's description (see
     /// [`super::KdSave::fingerprint`]); a save for another field is refused.
     pub fingerprint: String,
-    /// The edit log, oldest first (compacted: see [`kdcontour::edit::compact`]).
+    /// The edit log, oldest first: the applied edits, then the undone ones
+    /// (compacted: see [`kdcontour::edit::EditHistory::saved`]).
     pub edits: Vec<Brush>,
+    /// How the log divides into undo steps, and how many are applied (saves
+    /// written before undo existed have none: all their edits are applied and
+    /// none can be undone).
+    #[serde(default)]
+    pub undo: UndoSteps,
 }
 
 /// Why a save could not be read or written; each says what to do.
@@ -298,6 +304,7 @@ mod tests {
             edits: (0..n)
                 .map(|i| Brush::sphere(Vec3::new(i as f32, 0.0, 0.0), 2.0, BrushOp::Subtract))
                 .collect(),
+            undo: UndoSteps::default(),
         }
     }
 

@@ -1,7 +1,8 @@
 //! Saving: [`PersistPlugin`] keeps each [`KdSave`] volume's edit log in a file. The
-//! log is loaded when the volume starts, saved a moment after the last edit
-//! (debounced, on the I/O task pool, compacted with [`kdcontour::edit::compact`]),
-//! and saved once more, on the main thread, when the app exits ([`AppExit`]).
+//! log, with its undo and redo steps, is loaded when the volume starts, saved a
+//! moment after the last edit, undo or redo (debounced, on the I/O task pool,
+//! compacted by [`kdcontour::edit::EditHistory::saved`]), and saved once more, on
+//! the main thread, when the app exits ([`AppExit`]).
 //!
 //! A save records what its edits were made on (the volume's fingerprint, for
 //! example the terrain's seed and parameters: [`KdSave::fingerprint_of`]) and is
@@ -21,7 +22,7 @@ use crate::{KdContourStep, KdContourSystems};
 use bevy::prelude::*;
 use bevy::tasks::{block_on, futures::check_ready, IoTaskPool, Task};
 use file::{PersistError, SaveData};
-use kdcontour::edit::EditedField;
+use kdcontour::edit::{EditHistory, EditedField};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -93,7 +94,7 @@ pub struct EditsLoaded {
     pub volume: Entity,
     /// The save file.
     pub path: PathBuf,
-    /// Edits loaded.
+    /// Edits loaded (applied and undone).
     pub edits: usize,
 }
 
@@ -104,7 +105,7 @@ pub struct EditsSaved {
     pub volume: Entity,
     /// The save file.
     pub path: PathBuf,
-    /// Edits in the log when it was saved.
+    /// Edits in the log when it was saved (applied and undone).
     pub edits: usize,
     /// Edits written (after compaction).
     pub written: usize,
@@ -121,8 +122,8 @@ pub struct PersistFailed {
     pub error: String,
 }
 
-/// How many edits a save write covered, and its outcome.
-type SaveResult = (usize, Result<(usize, usize), PersistError>);
+/// The history revision and edits a save write covered, and its outcome.
+type SaveResult = (u64, usize, Result<(usize, usize), PersistError>);
 
 /// Where a volume's save stands.
 #[derive(Component, Default)]
@@ -130,10 +131,12 @@ pub struct SaveState {
     /// The save could not be used (unreadable, or another field's): it is never
     /// overwritten.
     refused: bool,
+    /// The history's revision when it was last saved (or loaded).
+    saved: u64,
     /// Edits in the log when it was last saved (or loaded).
-    saved: usize,
-    /// Edits in the log when it last changed, and when (real time).
-    changed: (usize, Duration),
+    saved_edits: usize,
+    /// The history's revision when it last changed, and when (real time).
+    changed: (u64, Duration),
     /// The save being written.
     task: Option<Task<SaveResult>>,
 }
@@ -144,9 +147,9 @@ impl SaveState {
         self.refused
     }
 
-    /// Edits in the log when it was last saved or loaded.
+    /// Edits in the log (applied and undone) when it was last saved or loaded.
     pub fn saved(&self) -> usize {
-        self.saved
+        self.saved_edits
     }
 
     /// Whether a save is being written.
@@ -168,9 +171,9 @@ fn load_saves(
         let mut status = SaveState::default();
         match load(save, state.field()) {
             Ok(None) => {}
-            Ok(Some(field)) => {
-                let edits = field.edit_count() - state.field().edit_count();
-                state.set_field(field);
+            Ok(Some(history)) => {
+                let edits = history.brush_count() - state.field().edit_count();
+                *state.history_mut() = history;
                 state.rebuild_all();
                 info!(
                     "KdVolume {volume}: loaded {edits} edits from {}",
@@ -191,15 +194,17 @@ fn load_saves(
                 });
             }
         }
-        let count = state.field().edit_count();
-        status.saved = count;
-        status.changed = (count, Duration::ZERO);
+        let history = state.history();
+        status.saved = history.revision();
+        status.saved_edits = history.brush_count();
+        status.changed = (history.revision(), Duration::ZERO);
         commands.entity(volume).insert(status);
     }
 }
 
-/// The volume's field with the saved edits on top, or `None` with no save.
-fn load(save: &KdSave, field: &EditedField) -> Result<Option<EditedField>, PersistError> {
+/// The volume's field with the saved edits and their undo steps on top, or
+/// `None` with no save.
+fn load(save: &KdSave, field: &EditedField) -> Result<Option<EditHistory>, PersistError> {
     let Some(data) = file::read(&save.path, file::MAX_FILE_BYTES)? else {
         return Ok(None);
     };
@@ -210,8 +215,13 @@ fn load(save: &KdSave, field: &EditedField) -> Result<Option<EditedField>, Persi
             current: save.fingerprint.clone(),
         });
     }
-    field
-        .with_edits(data.edits)
+    data.undo
+        .check(data.edits.len())
+        .map_err(|e| PersistError::Corrupt {
+            path: save.path.clone(),
+            reason: format!("its undo steps do not fit its edits: {e}"),
+        })?;
+    EditHistory::restore(field.clone(), data.edits, &data.undo)
         .map(Some)
         .map_err(|e| PersistError::Replay {
             path: save.path.clone(),
@@ -219,24 +229,33 @@ fn load(save: &KdSave, field: &EditedField) -> Result<Option<EditedField>, Persi
         })
 }
 
-/// Starts writing `field`'s log on the I/O task pool.
-fn spawn_save(save: &KdSave, field: EditedField) -> Task<SaveResult> {
+/// Starts writing `history`'s log on the I/O task pool.
+fn spawn_save(save: &KdSave, history: EditHistory) -> Task<SaveResult> {
     let (path, fingerprint) = (save.path.clone(), save.fingerprint.clone());
     IoTaskPool::get().spawn(async move {
-        let count = field.edit_count();
-        (count, write(&path, fingerprint, &field))
+        let count = history.brush_count();
+        (
+            history.revision(),
+            count,
+            write(&path, fingerprint, &history),
+        )
     })
 }
 
-/// Writes `field`'s compacted log; returns the edits and bytes written.
+/// Writes `history`'s compacted log and steps; returns the edits and bytes
+/// written.
 fn write(
     path: &std::path::Path,
     fingerprint: String,
-    field: &EditedField,
+    history: &EditHistory,
 ) -> Result<(usize, usize), PersistError> {
-    let edits = kdcontour::edit::compact(&field.log());
+    let (edits, undo) = history.saved();
     let written = edits.len();
-    let bytes = file::encode(&SaveData { fingerprint, edits });
+    let bytes = file::encode(&SaveData {
+        fingerprint,
+        edits,
+        undo,
+    });
     file::write_atomic(path, &bytes)?;
     Ok((written, bytes.len()))
 }
@@ -254,7 +273,7 @@ fn autosave(
     let now = time.elapsed();
     for (volume, save, state, mut status) in &mut volumes {
         if let Some(task) = status.task.as_mut() {
-            let Some((count, result)) = check_ready(task) else {
+            let Some((revision, count, result)) = check_ready(task) else {
                 continue;
             };
             status.task = None;
@@ -262,23 +281,23 @@ fn autosave(
                 volume,
                 save,
                 &mut status,
-                count,
+                (revision, count),
                 result,
                 &mut saved,
                 &mut failed,
             );
         }
-        let count = state.field().edit_count();
-        if count != status.changed.0 {
-            status.changed = (count, now);
+        let revision = state.history().revision();
+        if revision != status.changed.0 {
+            status.changed = (revision, now);
         }
         let Some(after) = save.autosave_after else {
             continue;
         };
-        if status.refused || count == status.saved || now < status.changed.1 + after {
+        if status.refused || revision == status.saved || now < status.changed.1 + after {
             continue;
         }
-        status.task = Some(spawn_save(save, state.field().clone()));
+        status.task = Some(spawn_save(save, state.history().clone()));
     }
 }
 
@@ -287,14 +306,15 @@ fn report(
     volume: Entity,
     save: &KdSave,
     status: &mut SaveState,
-    count: usize,
+    (revision, count): (u64, usize),
     result: Result<(usize, usize), PersistError>,
     saved: &mut MessageWriter<EditsSaved>,
     failed: &mut MessageWriter<PersistFailed>,
 ) {
     match result {
         Ok((written, bytes)) => {
-            status.saved = count;
+            status.saved = revision;
+            status.saved_edits = count;
             saved.write(EditsSaved {
                 volume,
                 path: save.path.clone(),
@@ -327,27 +347,27 @@ fn save_on_exit(
     }
     for (volume, save, state, mut status) in &mut volumes {
         if let Some(task) = status.task.take() {
-            let (count, result) = block_on(task);
+            let (revision, count, result) = block_on(task);
             report(
                 volume,
                 save,
                 &mut status,
-                count,
+                (revision, count),
                 result,
                 &mut saved,
                 &mut failed,
             );
         }
-        let count = state.field().edit_count();
-        if status.refused || count == status.saved {
+        let history = state.history();
+        if status.refused || history.revision() == status.saved {
             continue;
         }
-        let result = write(&save.path, save.fingerprint.clone(), state.field());
+        let result = write(&save.path, save.fingerprint.clone(), history);
         report(
             volume,
             save,
             &mut status,
-            count,
+            (history.revision(), history.brush_count()),
             result,
             &mut saved,
             &mut failed,

@@ -203,11 +203,7 @@ pub(crate) fn sync_volumes(
             );
             continue;
         }
-        match state.swap_base(vol.field.0.clone(), vol.iso) {
-            Ok(()) => {
-                state.rebuild_all();
-            }
-            Err(e) => warn!("KdVolume {entity}: replaying the edits failed: {e}"),
-        }
+        state.swap_base(vol.field.0.clone(), vol.iso);
+        state.rebuild_all();
     }
 }

@@ -134,10 +134,10 @@ fn a_ball_rests_on_the_ground_and_falls_into_a_pit_dug_under_it() {
     assert!(with > 0 && with < 32, "{with} of 32 chunks have colliders");
 
     // Dig a pit under it: it falls in within a simulated second.
-    app.world_mut().write_message(ApplyEdit {
+    app.world_mut().write_message(ApplyEdit::new(
         volume,
-        brush: Brush::sphere(Vec3::new(rest.x, ground, rest.z), 1.5, BrushOp::Subtract),
-    });
+        Brush::sphere(Vec3::new(rest.x, ground, rest.z), 1.5, BrushOp::Subtract),
+    ));
     let mut fell = None;
     for frame in 0..60 {
         step(&mut app, volume, 1);
@@ -160,9 +160,9 @@ fn a_wall_raised_in_its_path_stops_a_rolling_ball() {
     step(&mut app, volume, 120);
     // A wall across the path at x = 9..10, well above the ground and wider
     // than the volume.
-    app.world_mut().write_message(ApplyEdit {
+    app.world_mut().write_message(ApplyEdit::new(
         volume,
-        brush: kdcontour::edit::Brush {
+        kdcontour::edit::Brush {
             shape: CsgNode::Box {
                 half_extents: Vec3::new(0.5, 2.0, 10.0),
                 center: Vec3::new(9.5, 4.0, 8.0),
@@ -170,7 +170,7 @@ fn a_wall_raised_in_its_path_stops_a_rolling_ball() {
             op: BrushOp::Add,
             material: 0,
         },
-    });
+    ));
     step(&mut app, volume, 10);
     // Push it straight at the wall at 4 units a second for three seconds (it
     // would be past x = 15 without the wall). Its sideways speed is held at

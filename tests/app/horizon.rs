@@ -4,11 +4,11 @@
 //! its replacement); after the camera stops, every shown mesh equals a
 //! from-scratch build of its level world, and no edit is lost.
 
-use crate::common::{app_with, applied_edits, settle, shown};
+use crate::common::{app_with, applied_edits, assert_shown_match_fresh, settle};
 use bevy::prelude::*;
 use bevy_kdcontour::prelude::*;
 use kdcontour::field::FnField;
-use kdcontour::{Field, IndexedMesh, World};
+use kdcontour::Field;
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -99,54 +99,6 @@ fn check_cover(app: &App, volume: Entity) -> Result<usize, String> {
     Ok(shown.len())
 }
 
-/// Every shown chunk's mesh equals the same chunk built from scratch, on the
-/// volume's layout, field and thresholds.
-fn assert_matches_fresh(app: &App, volume: Entity) {
-    let state = app.world().get::<VolumeState>(volume).unwrap();
-    let world = state.world();
-    let showing = state.shown_chunks();
-    let mut fresh = World::new(
-        world.origin,
-        world.cell_size,
-        world.chunk_res,
-        world.layout().clone(),
-        0.01,
-        world.settings.clone(),
-    )
-    .unwrap();
-    let keys: Vec<ChunkKey> = showing.iter().map(|(k, _)| *k).collect();
-    let stray: Vec<_> = keys
-        .iter()
-        .filter(|k| !world.layout().contains(k))
-        .collect();
-    assert!(
-        stray.is_empty(),
-        "shown but not in the layout {:?}..{:?}: {stray:?}",
-        world.layout().lo(),
-        world.layout().hi()
-    );
-    for k in &keys {
-        fresh.set_threshold(k, world.threshold(k));
-    }
-    fresh.build(&keys, state.field()).unwrap();
-    let mut meshed = 0;
-    for (k, e) in &showing {
-        let mut want = IndexedMesh::default();
-        if let Some(s) = fresh.snapshot(k) {
-            s.extract(&mut want);
-        }
-        match shown(app, *e) {
-            None => assert!(want.is_empty(), "chunk {k:?} shows nothing"),
-            Some((p, i)) => {
-                meshed += 1;
-                let wp: Vec<[f32; 3]> = want.positions.iter().map(|v| v.to_array()).collect();
-                assert!(p == wp && i == want.indices, "chunk {k:?} differs");
-            }
-        }
-    }
-    assert!(meshed > 10, "only {meshed} chunks show a mesh");
-}
-
 #[test]
 fn a_flight_with_edits_keeps_the_horizon_whole_and_loses_nothing() {
     let mut app = app();
@@ -202,8 +154,7 @@ fn a_flight_with_edits_keeps_the_horizon_whole_and_loses_nothing() {
             _ => None,
         };
         if let Some(brush) = brush {
-            app.world_mut()
-                .write_message(ApplyEdit { volume: v, brush });
+            app.world_mut().write_message(ApplyEdit::new(v, brush));
             edits += 1;
         }
         app.update();
@@ -238,7 +189,8 @@ fn a_flight_with_edits_keeps_the_horizon_whole_and_loses_nothing() {
         regions.push(lo);
     }
     assert_eq!(state.edit_log().len(), edits, "an edit was lost");
-    assert_matches_fresh(&app, v);
+    let field = app.world().get::<VolumeState>(v).unwrap().field().clone();
+    assert_shown_match_fresh(&app, v, &field);
     assert!(changing > 20, "levels changed in only {changing} frames");
     assert!(regions.len() >= 3, "the region moved twice: {regions:?}");
 }

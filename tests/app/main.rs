@@ -6,4 +6,5 @@ mod common;
 mod horizon;
 mod materials;
 mod persist;
+mod undo;
 mod volumes;

@@ -224,10 +224,10 @@ fn a_paint_stroke_rebuilds_only_the_chunks_it_reaches_and_shows_its_material() {
     // its top is 0.4 below chunk (1, 1, 1), whose one-cell halo it reaches.
     let center = Vec3::new(6.0, 3.1, 6.0);
     let reached = [IVec3::new(1, 0, 1), IVec3::new(1, 1, 1)];
-    app.world_mut().write_message(ApplyEdit {
+    app.world_mut().write_message(ApplyEdit::new(
         volume,
-        brush: Brush::sphere(center, 0.5, BrushOp::Paint).with_material(3),
-    });
+        Brush::sphere(center, 0.5, BrushOp::Paint).with_material(3),
+    ));
     app.update();
     let applied = applied_edits(&mut app);
     assert_eq!(applied.len(), 1);

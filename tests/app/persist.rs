@@ -61,8 +61,8 @@ fn ball_app(path: &Path, autosave: Option<Duration>) -> (App, Entity) {
     (app, volume)
 }
 
-/// Strokes of dabs that grow over a point, digging and adding: the later dabs
-/// of a stroke cover the earlier ones.
+/// Strokes of four dabs that grow over a point, digging and adding: the later
+/// dabs of a stroke cover the earlier ones, and each stroke is one undo step.
 fn strokes(volume: Entity, n: usize) -> Vec<ApplyEdit> {
     (0..n)
         .map(|i| {
@@ -78,9 +78,10 @@ fn strokes(volume: Entity, n: usize) -> Vec<ApplyEdit> {
             } else {
                 BrushOp::Add
             };
-            ApplyEdit {
-                volume,
-                brush: Brush::sphere(at, 0.1 + 0.04 * (i % 4) as f32, op),
+            let brush = Brush::sphere(at, 0.1 + 0.04 * (i % 4) as f32, op);
+            match i % 4 {
+                0 => ApplyEdit::new(volume, brush),
+                _ => ApplyEdit::continuing(volume, brush),
             }
         })
         .collect()
@@ -205,10 +206,10 @@ fn a_save_for_another_seed_is_refused_and_never_overwritten() {
     let mut first = app_with(LodSettings::default());
     let volume = spawn(&mut first, 7);
     settle(&mut first, volume);
-    first.world_mut().write_message(ApplyEdit {
+    first.world_mut().write_message(ApplyEdit::new(
         volume,
-        brush: Brush::sphere(Vec3::new(16.0, 8.0, 16.0), 5.0, BrushOp::Subtract),
-    });
+        Brush::sphere(Vec3::new(16.0, 8.0, 16.0), 5.0, BrushOp::Subtract),
+    ));
     first.update();
     exit(&mut first);
     let saved = std::fs::read(&path).unwrap();
@@ -238,10 +239,10 @@ fn a_save_for_another_seed_is_refused_and_never_overwritten() {
     );
     assert!(other.world().get::<SaveState>(volume).unwrap().refused());
     // Edits made on the other field are not written over the save.
-    other.world_mut().write_message(ApplyEdit {
+    other.world_mut().write_message(ApplyEdit::new(
         volume,
-        brush: Brush::sphere(Vec3::new(4.0, 8.0, 4.0), 3.0, BrushOp::Add),
-    });
+        Brush::sphere(Vec3::new(4.0, 8.0, 4.0), 3.0, BrushOp::Add),
+    ));
     other.update();
     exit(&mut other);
     assert_eq!(std::fs::read(&path).unwrap(), saved);
@@ -258,6 +259,21 @@ fn a_damaged_save_is_refused_with_what_to_do_and_left_whole() {
             .into_iter()
             .map(|e| e.brush)
             .collect(),
+        undo: Default::default(),
+    });
+    // Undo steps that do not fit the log (they go back down): refused whole,
+    // though every brush decodes.
+    let steps = file::encode(&SaveData {
+        fingerprint: KdSave::fingerprint_of(&ball()),
+        edits: strokes(Entity::PLACEHOLDER, 8)
+            .into_iter()
+            .map(|e| e.brush)
+            .collect(),
+        undo: kdcontour::edit::UndoSteps {
+            floor: 0,
+            ends: vec![4, 2, 8],
+            applied: 3,
+        },
     });
     let truncated = good[..good.len() - 5].to_vec();
     let mut nan = good.clone();
@@ -265,11 +281,13 @@ fn a_damaged_save_is_refused_with_what_to_do_and_left_whole() {
     let bad_brush = SaveData {
         fingerprint: KdSave::fingerprint_of(&ball()),
         edits: vec![Brush::sphere(Vec3::ONE, f32::NAN, BrushOp::Add)],
+        undo: Default::default(),
     };
     nan.clear();
     nan.extend(file::encode(&bad_brush));
-    let cases: [(&[u8], &str); 4] = [
+    let cases: [(&[u8], &str); 5] = [
         (b"not a save at all", "is not a bevy_kdcontour save"),
+        (&steps, "its undo steps do not fit its edits: invalid setting `undo steps`: step ends must rise"),
         (&truncated, "the header promises"),
         (&nan, "a saved edit does not apply"),
         (&good[..10], "shorter than the 24-byte header"),
@@ -278,10 +296,10 @@ fn a_damaged_save_is_refused_with_what_to_do_and_left_whole() {
         std::fs::write(&path, bytes).unwrap();
         let (mut app, volume) = ball_app(&path, Some(Duration::ZERO));
         settle(&mut app, volume);
-        app.world_mut().write_message(ApplyEdit {
+        app.world_mut().write_message(ApplyEdit::new(
             volume,
-            brush: Brush::sphere(Vec3::ONE, 0.3, BrushOp::Subtract),
-        });
+            Brush::sphere(Vec3::ONE, 0.3, BrushOp::Subtract),
+        ));
         for _ in 0..5 {
             app.update();
         }
@@ -321,10 +339,8 @@ fn ten_thousand_edits_save_and_load() {
         })
         .collect();
     for b in &brushes {
-        app.world_mut().write_message(ApplyEdit {
-            volume,
-            brush: b.clone(),
-        });
+        app.world_mut()
+            .write_message(ApplyEdit::new(volume, b.clone()));
     }
     app.update();
     exit(&mut app);
@@ -366,10 +382,8 @@ fn autosaving_child() {
         .field()
         .edit_count();
     for i in loaded.. {
-        app.world_mut().write_message(ApplyEdit {
-            volume,
-            brush: dab(i),
-        });
+        app.world_mut()
+            .write_message(ApplyEdit::new(volume, dab(i)));
         app.update();
     }
 }

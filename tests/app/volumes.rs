@@ -137,10 +137,8 @@ fn one_edit_rebuilds_exactly_the_chunks_it_meets() {
     };
     // A ball around the chunk corner at (1/3, 1/3, 1/3) of the cube, local space.
     let center = Vec3::splat(2.0 / 3.0) + Vec3::new(0.02, 0.03, 0.01);
-    app.world_mut().write_message(ApplyEdit {
-        volume: v,
-        brush: Brush::sphere(center, 0.1, BrushOp::Add),
-    });
+    app.world_mut()
+        .write_message(ApplyEdit::new(v, Brush::sphere(center, 0.1, BrushOp::Add)));
     app.update();
     let applied = applied_edits(&mut app);
     assert_eq!(applied.len(), 1);
@@ -191,10 +189,10 @@ fn a_hundred_edits_and_camera_moves_lose_nothing() {
         } else {
             BrushOp::Subtract
         };
-        app.world_mut().write_message(ApplyEdit {
-            volume: v,
-            brush: Brush::sphere(center, 0.05 + 0.15 * next(), op),
-        });
+        app.world_mut().write_message(ApplyEdit::new(
+            v,
+            Brush::sphere(center, 0.05 + 0.15 * next(), op),
+        ));
         if i % 7 == 0 {
             let p = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 4.0 + Vec3::ONE;
             app.world_mut()

@@ -85,6 +85,11 @@ fn is_hard(op: BrushOp) -> bool {
 
 /// Whether `later`'s shape provably contains `earlier`'s (see the module docs).
 fn covered(earlier: &Brush, later: &Brush) -> bool {
+    if earlier.shape == later.shape {
+        // Identical, so the two distances are too (spheres included: the
+        // margin below is for different spheres).
+        return true;
+    }
     match (&earlier.shape, &later.shape) {
         (
             CsgNode::Sphere {
@@ -126,6 +131,12 @@ mod tests {
         ];
         let c = compact(&log);
         assert_eq!(c, log[1..].to_vec());
+        // The same sphere dug twice: the first is dropped.
+        let log = vec![
+            sphere(0.0, 0.0, 0.0, 1.0, BrushOp::Subtract),
+            sphere(0.0, 0.0, 0.0, 1.0, BrushOp::Subtract),
+        ];
+        assert_eq!(compact(&log), log[1..].to_vec());
         // Touching the outside (no margin left) is not covered.
         let log = vec![
             sphere(0.0, 0.0, 0.0, 1.0, BrushOp::Add),

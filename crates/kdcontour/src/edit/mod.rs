@@ -3,9 +3,11 @@
 //! and replayed exactly; [`compact`] drops the brushes later ones provably erase.
 
 mod compact;
+mod history;
 mod material;
 
 pub use compact::compact;
+pub use history::{EditHistory, UndoSteps};
 
 use crate::error::{Error, Result};
 use crate::field::csg::{Csg, CsgNode};
@@ -160,6 +162,39 @@ impl EditedField {
     /// Center and radius of the region the last edit can change.
     pub fn last_reach(&self) -> Option<(Vec3, f32)> {
         self.edits.last().map(|c| c.reach)
+    }
+
+    /// This field with only its first `n` brushes (all of them if it has fewer);
+    /// the brushes are shared, not compiled again, so the result samples bit for
+    /// bit as a replay of those `n` brushes would.
+    pub fn prefix(&self, n: usize) -> EditedField {
+        let n = n.min(self.edits.len());
+        if n == self.edits.len() {
+            return self.clone();
+        }
+        EditedField {
+            base: self.base.clone(),
+            edits: Arc::new(self.edits[..n].to_vec()),
+        }
+    }
+
+    /// Center and radius of the region each brush in `range` can change.
+    pub fn reaches(&self, range: std::ops::Range<usize>) -> Vec<(Vec3, f32)> {
+        self.edits[range].iter().map(|c| c.reach).collect()
+    }
+
+    /// The brushes in `range`, oldest first.
+    pub fn brushes(&self, range: std::ops::Range<usize>) -> Vec<Brush> {
+        self.edits[range].iter().map(|c| c.brush.clone()).collect()
+    }
+
+    /// The same brushes on another base field (shared: a brush does not
+    /// depend on what it is applied to).
+    pub fn rebased(&self, base: Arc<dyn Field>) -> EditedField {
+        EditedField {
+            base,
+            edits: self.edits.clone(),
+        }
     }
 }
 
