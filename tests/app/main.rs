@@ -6,5 +6,6 @@ mod common;
 mod horizon;
 mod materials;
 mod persist;
+mod rolling;
 mod undo;
 mod volumes;
