@@ -88,6 +88,7 @@ pub fn geometry_json(r: &MeshReport) -> serde_json::Value {
         "surface_to_mesh_mean": d.map(|d| d.surface_to_mesh_mean),
         "surface_points": d.map(|d| d.surface_points),
         "lost_surface": d.map(|d| d.lost_surface),
+        "surface_refined": d.map(|d| d.refined),
     })
 }
 
@@ -149,8 +150,13 @@ pub fn print_checks(r: &MeshReport) {
         );
     }
     if let Some(d) = &r.distance {
+        let on = if d.refined {
+            "the grid, the shifted grid and finer lattices"
+        } else {
+            "the grid and the shifted grid; --checks full adds finer lattices"
+        };
         println!(
-            "distance   mesh->surface max {:.4} mean {:.4}, surface->mesh max {:.4} mean {:.4} cells",
+            "distance   mesh->surface max {:.4} mean {:.4}, surface->mesh max {:.4} mean {:.4} cells (surface sampled on {on})",
             d.mesh_to_surface_max,
             d.mesh_to_surface_mean,
             d.surface_to_mesh_max,

@@ -63,6 +63,7 @@ fn json_is_exactly_one_line_with_every_key() {
         "surface_to_mesh_mean",
         "surface_points",
         "lost_surface",
+        "surface_refined",
         "fold_bucket_degrees",
         "fold_histogram",
         "fold_max_degrees",
@@ -109,6 +110,41 @@ fn quick_checks_skip_the_costly_ones() {
         "{out}"
     );
     assert_eq!(v["flipped_triangles"], 0);
+}
+
+#[test]
+fn checks_default_to_the_grids_and_full_adds_the_finer_lattices() {
+    let run = |checks: Option<&str>| {
+        let mut args = vec!["mesh", "--scene", "csg_mix", "--res", "24", "--json"];
+        if let Some(c) = checks {
+            args.extend(["--checks", c]);
+        }
+        let (code, out, err) = kdcontour(&args);
+        assert_eq!(code, 0, "{err}");
+        serde_json::from_str::<serde_json::Value>(out.trim()).unwrap()
+    };
+    let (standard, full, explicit) = (run(None), run(Some("full")), run(Some("standard")));
+    assert_eq!(standard["surface_refined"], false);
+    assert_eq!(explicit["surface_refined"], false);
+    assert_eq!(full["surface_refined"], true);
+    // The same mesh, the same crossings counted; the finer lattices can only
+    // find surface farther from the mesh.
+    assert_eq!(standard["triangles"], full["triangles"]);
+    assert_eq!(standard["surface_points"], full["surface_points"]);
+    assert_eq!(standard["crossing_pairs"], full["crossing_pairs"]);
+    let max = |v: &serde_json::Value| v["surface_to_mesh_max"].as_f64().unwrap();
+    assert!(max(&full) >= max(&standard), "{full} {standard}");
+    // The summary says what was sampled, and how to sample more.
+    let (code, out, _) = kdcontour(&["mesh", "--scene", "torus", "--res", "16"]);
+    assert_eq!(code, 0);
+    assert!(out.contains("--checks full adds finer lattices"), "{out}");
+    // Anything else is refused with the choices.
+    let (code, _, err) = kdcontour(&["mesh", "--scene", "torus", "--checks", "most"]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("quick") && err.contains("standard") && err.contains("full"),
+        "{err}"
+    );
 }
 
 #[test]

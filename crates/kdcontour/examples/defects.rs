@@ -42,6 +42,7 @@ fn main() {
                         field: Some((&*scene.field, grid.cell_size)),
                         intersections: true,
                         surface: None,
+                        refine_surface: false,
                     },
                 );
                 let i = rep.intersections.clone().unwrap_or_default();

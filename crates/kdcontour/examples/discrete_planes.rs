@@ -109,6 +109,7 @@ fn row(name: &str, field: &dyn Field, grid: &Grid, reps: u32, settings: &Setting
         field: Some((field, grid.cell_size)),
         intersections: false,
         surface: Some(grid),
+        refine_surface: true,
     };
     let (rm, rd) = (
         validate_with(&mc, &checks),

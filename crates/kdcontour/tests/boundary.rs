@@ -81,6 +81,7 @@ fn each_mesh(boundary: Boundary, check: impl Fn(&str, &MeshReport, f64, f64)) {
                             field: Some((checked, grid.cell_size)),
                             intersections: true,
                             surface: None,
+                            refine_surface: false,
                         },
                     );
                     let (covered, raw) = area(&m, checked);

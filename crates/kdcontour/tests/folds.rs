@@ -40,6 +40,7 @@ fn report(mesh: &IndexedMesh, field: &dyn Field, cell: f32) -> MeshReport {
             field: Some((field, cell)),
             intersections: true,
             surface: None,
+            refine_surface: false,
         },
     )
 }

@@ -373,10 +373,17 @@ pub(crate) struct SurfaceToMesh {
 /// mesher saw (the shifted grid also sees features thinner than a cell that
 /// `grid` misses).
 ///
-/// The maximum also sees the crossings of a lattice [`REFINE`] times finer inside
-/// every cell of `grid` that may hold surface ([`may_hold_surface`]).
-pub(crate) fn surface_to_mesh(field: &dyn Field, grid: &Grid, tris: &TriGrid) -> SurfaceToMesh {
-    let mut s = crossings_to_mesh(field, grid, tris, true);
+/// With `refine`, the maximum also sees the crossings of a lattice [`REFINE`]
+/// times finer inside every cell of `grid` that may hold surface
+/// ([`may_hold_surface`]), and of one [`REFINE_TOP`] times finer in the cells
+/// nearest the maximum.
+pub(crate) fn surface_to_mesh(
+    field: &dyn Field,
+    grid: &Grid,
+    tris: &TriGrid,
+    refine: bool,
+) -> SurfaceToMesh {
+    let mut s = crossings_to_mesh(field, grid, tris, refine);
     if grid.cells.min_element() >= 2 {
         let shifted = Grid {
             origin: grid.corner_pos(UVec3::ZERO) + Vec3::splat(0.5 * grid.cell_size),

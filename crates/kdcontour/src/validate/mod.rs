@@ -32,7 +32,10 @@
 //!   the field's Lipschitz bound to prove it empty, found by false position on
 //!   the field) to the nearest triangle, exactly. The cells nearest the maximum
 //!   are sampled again on a lattice twelve times finer (sub-cell peaks of a
-//!   noisy surface are often the farthest points).
+//!   noisy surface are often the farthest points). The two finer lattices are
+//!   [`Checks::refine_surface`]: they cost tens of times the grid's own samples,
+//!   so [`Checks::standard`] leaves them out ([`Distance::refined`] says which
+//!   ran).
 //!   [`Distance::lost_surface`] is the share of the sampling grid's own crossings
 //!   (the surface the mesher saw) farther than [`LOST_CELLS`] cells; the shifted
 //!   grid also sees features thinner than a cell, which no mesh of the grid can
@@ -160,6 +163,9 @@ pub struct Distance {
     pub surface_points: usize,
     /// Share of those farther than [`LOST_CELLS`] from the mesh.
     pub lost_surface: f32,
+    /// Whether the surface points include the finer lattices
+    /// ([`Checks::refine_surface`]).
+    pub refined: bool,
 }
 
 impl Distance {
@@ -181,15 +187,32 @@ pub struct Checks<'a> {
     /// Sample the two-sided distance and the lost surface on this grid (with
     /// `field`; its cell size is the unit).
     pub surface: Option<&'a Grid>,
+    /// With `surface`: also sample the surface on lattices finer than the grid
+    /// (three times in every cell that may hold surface, twelve in the farthest;
+    /// see the [module docs](self)). Finds the farthest points a grid misses, at
+    /// tens of times the grid's samples.
+    pub refine_surface: bool,
 }
 
 impl<'a> Checks<'a> {
-    /// Every check, against `field` sampled on `grid`.
+    /// Every check, against `field` sampled on `grid`, the surface on the finer
+    /// lattices too.
     pub fn all(field: &'a dyn Field, grid: &'a Grid) -> Self {
+        Checks {
+            refine_surface: true,
+            ..Checks::standard(field, grid)
+        }
+    }
+
+    /// Every check, against `field` sampled on `grid`, the surface-to-mesh
+    /// distance on the grid's crossings and those of the grid shifted by half a
+    /// cell only: a cost of a few times the grid's own samples.
+    pub fn standard(field: &'a dyn Field, grid: &'a Grid) -> Self {
         Checks {
             field: Some((field, grid.cell_size)),
             intersections: true,
             surface: Some(grid),
+            refine_surface: false,
         }
     }
 }
@@ -337,7 +360,7 @@ pub fn validate_with(mesh: &IndexedMesh, checks: &Checks) -> MeshReport {
         let c = sg.cell_size;
         let (m_max, m_mean) =
             distance::mesh_to_surface(f, &mesh.positions, &tris, &faces.listed, &used, c);
-        let s = distance::surface_to_mesh(f, sg, g);
+        let s = distance::surface_to_mesh(f, sg, g, checks.refine_surface);
         r.distance = Some(Distance {
             mesh_to_surface_max: m_max / c,
             mesh_to_surface_mean: m_mean / c,
@@ -349,6 +372,7 @@ pub fn validate_with(mesh: &IndexedMesh, checks: &Checks) -> MeshReport {
             } else {
                 0.0
             },
+            refined: checks.refine_surface,
         });
     }
     r
