@@ -2,6 +2,7 @@
 //! each [`Node`] carrying its bounding sphere.
 
 use super::bound::{enclose, Bound};
+use super::bvh::Bvh;
 use super::CsgNode;
 use crate::error::Error;
 use crate::field::sdf::Primitive;
@@ -52,6 +53,8 @@ pub(super) struct Node {
     pub op: Op,
     /// A sphere outside which the node's value is at least the distance to it.
     pub bound: Option<Bound>,
+    /// A union of many bounded children: the hierarchy over them.
+    pub bvh: Option<Box<Bvh>>,
 }
 
 /// A compiled CSG tree; a [`Field`](crate::field::Field) with analytic gradients
@@ -84,7 +87,11 @@ impl CsgNode {
 fn compile(n: &CsgNode) -> Node {
     let op = compile_op(n);
     let bound = bound_of(&op);
-    Node { op, bound }
+    let bvh = match &op {
+        Op::Union(ch) => Bvh::over(ch).map(Box::new),
+        _ => None,
+    };
+    Node { op, bound, bvh }
 }
 
 /// The op of a checked node, its children compiled.

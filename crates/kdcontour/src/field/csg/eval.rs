@@ -58,6 +58,10 @@ impl Node {
     pub(super) fn eval(&self, p: Vec3) -> (f32, Vec3) {
         match &self.op {
             Op::Prim(prim, c) => prim.value_gradient(p - *c),
+            Op::Union(ch) if self.bvh.is_some() => {
+                let bvh = self.bvh.as_ref().expect("matched");
+                bvh.union(ch, p, (f32::INFINITY, Vec3::Y), |r| r.0, &|c| c.eval(p))
+            }
             Op::Union(ch) => {
                 let mut best = (f32::INFINITY, Vec3::Y);
                 for c in ch {
@@ -143,6 +147,10 @@ impl Node {
     pub(super) fn value(&self, p: Vec3) -> f32 {
         match &self.op {
             Op::Prim(prim, c) => prim.value(p - *c),
+            Op::Union(ch) if self.bvh.is_some() => {
+                let bvh = self.bvh.as_ref().expect("matched");
+                bvh.union(ch, p, f32::INFINITY, |v| *v, &|c| c.value(p))
+            }
             Op::Union(ch) => {
                 let mut best = f32::INFINITY;
                 for c in ch {

@@ -30,10 +30,11 @@
 //! each primitive has, their ranges and the shape they build in `primitive` (one
 //! table, read by both validation and compilation) over the range checks of
 //! `param`; validation in `check`; compilation to the evaluable tree in `compile`;
-//! bounding spheres in `bound`; evaluation in `eval`; and batched grid sampling in
-//! `sample`.
+//! bounding spheres in `bound`, and the hierarchy over a union's many children in
+//! `bvh`; evaluation in `eval`; and batched grid sampling in `sample`.
 
 mod bound;
+mod bvh;
 mod check;
 mod compile;
 mod eval;
