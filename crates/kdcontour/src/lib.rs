@@ -59,7 +59,8 @@
 //! - **Surfaces that leave the grid** ([`Settings::boundary`], see [`boundary`]):
 //!   by default ([`Boundary::Open`]) the mesh ends half a cell inside the grid's
 //!   faces at every threshold, covering what the uniform mesh covers (nodes the
-//!   surface leaves through stay one cell thick across that face); with
+//!   surface leaves through stay one cell thick across that face, and one cell
+//!   where its trace on the face turns); with
 //!   [`Boundary::Capped`] the solid is cut by the grid's box and closed in its
 //!   faces, so the mesh is watertight and 2-manifold (check it against
 //!   [`boundary::CappedField`]).

@@ -1,5 +1,6 @@
-//! Surfaces that leave the grid (issue 13): open meshes cover what the uniform mesh
-//! covers at every threshold, capped meshes are closed, on both partitions.
+//! Surfaces that leave the grid: open meshes cover what the uniform mesh covers
+//! (within 1%) at every threshold, curved ones too, and capped meshes are closed,
+//! on both partitions.
 
 use kdcontour::boundary::CappedField;
 mod common;
@@ -8,9 +9,27 @@ use kdcontour::{
     validate_with, Boundary, Checks, CsgNode, Field, Grid, KdTree, MeshReport, Partition, Settings,
 };
 
-/// Planes, slabs, cylinders and boxes that cross the faces of `[-1, 1]^3`, axis
-/// aligned and tilted.
-const OPEN_SCENES: [(&str, &str); 8] = [
+/// Surfaces that cross the faces of `[-1, 1]^3`: curved ones (a sphere far
+/// larger than the grid, a torus larger than it, a sphere whose cap crosses
+/// three faces, noise terrain running off every side) and planes, slabs,
+/// cylinders and boxes, axis aligned and tilted.
+const OPEN_SCENES: [(&str, &str); 12] = [
+    (
+        "big sphere",
+        r#"{"type":"sphere","radius":3.0,"center":[0.3,-2.6,0.2]}"#,
+    ),
+    (
+        "big torus",
+        r#"{"type":"torus","major_radius":1.6,"minor_radius":0.5,"center":[0,0.1,0]}"#,
+    ),
+    (
+        "cap",
+        r#"{"type":"sphere","radius":1.3,"center":[0.9,0.2,-0.1]}"#,
+    ),
+    (
+        "terrain",
+        r#"{"type":"heightfield","seed":3,"base":0.0,"amplitude":0.35,"frequency":1.5,"octaves":5}"#,
+    ),
     ("plane", r#"{"type":"plane","normal":[0,1,0],"offset":0.1}"#),
     (
         "tilted plane",
@@ -48,6 +67,9 @@ const OPEN_SCENES: [(&str, &str); 8] = [
             {"type":"box","half_extents":[1.5,0.45,0.45]}}"#,
     ),
 ];
+
+/// The curved scenes of [`OPEN_SCENES`].
+const CURVED: [&str; 4] = ["big sphere", "big torus", "cap", "terrain"];
 
 /// Meshes every scene at res 32 and 64 on both partitions with `boundary`, and
 /// checks each mesh with `check(report, covered area / uniform's, raw area /
@@ -117,7 +139,12 @@ fn open_meshes_cover_what_the_uniform_mesh_covers() {
 fn capped_meshes_are_closed() {
     each_mesh(Boundary::Capped, |at, r, covered, _| {
         assert!(r.is_closed_manifold(), "{at}: {r:?}");
-        assert!((covered - 1.0).abs() < 0.01, "{at}: {covered}");
+        // Caps meet a curved surface at creases, which the coarsest threshold
+        // cuts by up to 1.3% of the area (the torus at res 32, threshold 1);
+        // every other mesh keeps it within 1%.
+        let curved_at_1 = CURVED.iter().any(|c| at.starts_with(c)) && at.ends_with("e 1");
+        let tolerance = if curved_at_1 { 0.02 } else { 0.01 };
+        assert!((covered - 1.0).abs() < tolerance, "{at}: {covered}");
         // Caps lie in the grid's faces, so the error is measured against the
         // field cut by the grid's box.
         assert!(r.max_vertex_error < 1.0, "{at}: {r:?}");
