@@ -61,12 +61,15 @@ fn chunked() -> (App, Entity) {
 }
 
 /// The chunk colliders' triangles welded into one trimesh (vertices at the
-/// same position are one).
+/// same position are one), chunk by chunk in coordinate order, so the same
+/// surface gives the same trimesh on every run.
 fn welded(app: &mut App) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let mut q = app.world_mut().query::<(&KdChunk, &Collider)>();
+    let mut chunks: Vec<_> = q.iter(app.world()).collect();
+    chunks.sort_by_key(|(k, _)| (k.level, k.coord.to_array()));
     let mut index: HashMap<[u32; 3], u32> = HashMap::new();
     let (mut vertices, mut triangles) = (Vec::new(), Vec::new());
-    for (_, c) in q.iter(app.world()) {
+    for (_, c) in chunks {
         let t = c.shape().as_trimesh().expect("a trimesh");
         let v = t.vertices();
         for tri in t.indices() {
