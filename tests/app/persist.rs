@@ -273,6 +273,7 @@ fn a_damaged_save_is_refused_with_what_to_do_and_left_whole() {
             floor: 0,
             ends: vec![4, 2, 8],
             applied: 3,
+            open: false,
         },
     });
     let truncated = good[..good.len() - 5].to_vec();

@@ -31,6 +31,11 @@ pub struct UndoSteps {
     /// Steps applied; the brushes after the last applied step's end are the
     /// undone ones (redo).
     pub applied: u64,
+    /// The last step is a stroke still open: the next dab that continues a
+    /// stroke joins it (so a replica that starts from a save groups the next
+    /// dabs as the history it was saved from does).
+    #[serde(default)]
+    pub open: bool,
 }
 
 impl UndoSteps {
@@ -126,6 +131,7 @@ impl EditHistory {
             history.floor = below + steps.floor as usize;
             history.ends = steps.ends.iter().map(|&e| below + e as usize).collect();
             history.applied = steps.applied as usize;
+            history.open = steps.open && history.applied == history.ends.len();
         }
         history.field = history.all.prefix(history.applied_len());
         Ok(history)
@@ -255,6 +261,7 @@ impl EditHistory {
             floor,
             ends,
             applied: self.applied as u64,
+            open: self.open,
         };
         (log, steps)
     }
@@ -444,6 +451,16 @@ mod tests {
         h.redo().unwrap();
         h.apply(dab(6), true, 10).unwrap();
         assert_eq!(h.undo_steps(), 2);
+        // An open stroke stays open through a save: the next dab joins it in
+        // the restored history as in this one.
+        h.apply(dab(7), false, 10).unwrap();
+        let (log, steps) = h.saved();
+        assert!(steps.open);
+        let mut back = EditHistory::restore(base(), log, &steps).unwrap();
+        h.apply(dab(8), true, 10).unwrap();
+        back.apply(dab(8), true, 10).unwrap();
+        assert_eq!(back.undo_steps(), h.undo_steps());
+        assert_eq!(back.saved(), h.saved());
     }
 
     #[test]
@@ -510,6 +527,7 @@ mod tests {
                     floor: 0,
                     ends: vec![2, 2, 3],
                     applied: 3,
+                    open: false,
                 },
                 "rise",
             ),
@@ -518,6 +536,7 @@ mod tests {
                     floor: 0,
                     ends: vec![1, 5],
                     applied: 1,
+                    open: false,
                 },
                 "the log has 3",
             ),
@@ -526,6 +545,7 @@ mod tests {
                     floor: 1,
                     ends: vec![3],
                     applied: 2,
+                    open: false,
                 },
                 "2 steps applied of 1",
             ),
@@ -534,6 +554,7 @@ mod tests {
                     floor: 9,
                     ends: vec![],
                     applied: 0,
+                    open: false,
                 },
                 "no steps",
             ),

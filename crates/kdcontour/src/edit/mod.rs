@@ -1,13 +1,17 @@
 //! Edits: brushes (any CSG shape, usually one transformed primitive) applied to a
 //! base field in order. The log is serialisable, so an edited world can be saved
-//! and replayed exactly; [`compact`] drops the brushes later ones provably erase.
+//! and replayed exactly; [`compact`] drops the brushes later ones provably erase;
+//! [`EditHistory`] adds undo and redo, and [`Sequencer`] and [`Replica`] keep
+//! peers' histories equal over an unreliable network.
 
 mod compact;
 mod history;
 mod material;
+mod sequence;
 
 pub use compact::compact;
 pub use history::{EditHistory, UndoSteps};
+pub use sequence::{EditOp, Replica, Sequencer, Snapshot};
 
 use crate::error::{Error, Result};
 use crate::field::csg::{Csg, CsgNode};
