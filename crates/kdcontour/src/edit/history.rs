@@ -284,18 +284,9 @@ impl EditHistory {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::edit::test_base as base;
     use crate::edit::BrushOp;
-    use crate::field::csg::CsgNode;
     use crate::field::Field;
-    use std::sync::Arc;
-
-    fn base() -> EditedField {
-        let sphere = CsgNode::Sphere {
-            radius: 10.0,
-            center: Vec3::ZERO,
-        };
-        EditedField::new(Arc::new(sphere.compile().unwrap()))
-    }
 
     fn dab(i: u32) -> Brush {
         let a = i as f32 * 0.7;

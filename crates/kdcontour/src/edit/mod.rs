@@ -13,6 +13,17 @@ pub use compact::compact;
 pub use history::{EditHistory, UndoSteps};
 pub use sequence::{EditOp, Replica, Sequencer, Snapshot};
 
+/// The field the history and sequence tests edit: a sphere of radius 10 at the
+/// origin, with no brushes.
+#[cfg(test)]
+fn test_base() -> EditedField {
+    let sphere = CsgNode::Sphere {
+        radius: 10.0,
+        center: Vec3::ZERO,
+    };
+    EditedField::new(Arc::new(sphere.compile().expect("a valid sphere")))
+}
+
 use crate::error::{Error, Result};
 use crate::field::csg::{Csg, CsgNode};
 use crate::field::Field;

@@ -216,19 +216,10 @@ impl Replica {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::edit::test_base as base;
     use crate::edit::BrushOp;
-    use crate::field::csg::CsgNode;
     use crate::field::Field;
     use glam::Vec3;
-    use std::sync::Arc;
-
-    fn base() -> EditedField {
-        let sphere = CsgNode::Sphere {
-            radius: 10.0,
-            center: Vec3::ZERO,
-        };
-        EditedField::new(Arc::new(sphere.compile().unwrap()))
-    }
 
     /// Op `i` of a session: dabs (some continuing a stroke), undos, redos.
     fn op(i: u64, r: u64) -> EditOp {
