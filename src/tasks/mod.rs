@@ -4,7 +4,8 @@
 //! [`KdContourSettings::max_tasks_in_flight`] at once (in
 //! [`KdContourSystems::Schedule`]), and collects them with `check_ready` (in
 //! [`KdContourSystems::Poll`]): a result from an older field or threshold is
-//! dropped, and a panic inside a build is reported as [`ChunkFailed`].
+//! dropped, and a panic inside a build or an extraction is reported as
+//! [`ChunkFailed`] (a failed extraction leaves the chunk's mesh as it was).
 
 use crate::mesh::ReadyMesh;
 use crate::messages::ChunkFailed;
@@ -71,12 +72,20 @@ fn waiting(state: &VolumeState, work: Work) -> Vec<ChunkKey> {
     v
 }
 
-/// Whether a chunk of a seam `c` owns waits for a build.
+/// Whether a chunk of a seam `c` owns waits for a build: its tree is about
+/// to change, and a seam cut against the old one may not fit the new (an
+/// edit reached both).
 fn partner_pending(state: &VolumeState, c: &ChunkKey) -> bool {
-    state.horizon.seam_partners(c).is_some_and(|ps| {
-        ps.iter()
-            .any(|p| p != c && state.slots.get(p).is_some_and(|s| s.work.build_pending()))
-    })
+    let pending =
+        |p: &ChunkKey| p != c && state.slots.get(p).is_some_and(|s| s.work.build_pending());
+    match state.horizon.seam_partners(c) {
+        Some(ps) => ps.iter().any(pending),
+        None => state
+            .world()
+            .owned_seams(c)
+            .iter()
+            .any(|s| s.chunks().iter().any(pending)),
+    }
 }
 
 /// Starts `work` on chunk `c`; false when no task was needed.
@@ -105,20 +114,24 @@ fn start(state: &mut VolumeState, workers: &ChunkWorkers, work: Work, c: ChunkKe
             // cancels it (its stamp would be stale anyway).
             slot.work.extracting = Some(workers.run(move || {
                 let t = std::time::Instant::now();
-                let mut mesh = IndexedMesh::default();
-                // Vertex materials come from the tree, when the volume's
-                // world carries them (a terrain material).
-                snapshot.extract(&mut mesh);
-                // The extra (a collider) takes the welded mesh; the drawn one
-                // has its vertices split along hard material borders, so a
-                // border is drawn along the crease, not as a sawtooth across it.
-                let extra = extra.map(|(b, wanted)| b.build(wanted.then_some(&mesh)));
-                kdcontour::material::split_borders(&mut mesh, &field, cell);
-                let mut ready = ReadyMesh::new(threshold, &mesh);
-                ready.extra = extra;
+                let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    let mut mesh = IndexedMesh::default();
+                    // Vertex materials come from the tree, when the volume's
+                    // world carries them (a terrain material).
+                    snapshot.extract(&mut mesh);
+                    // The extra (a collider) takes the welded mesh; the drawn one
+                    // has its vertices split along hard material borders, so a
+                    // border is drawn along the crease, not as a sawtooth across it.
+                    let extra = extra.map(|(b, wanted)| b.build(wanted.then_some(&mesh)));
+                    kdcontour::material::split_borders(&mut mesh, &field, cell);
+                    let mut ready = ReadyMesh::new(threshold, &mesh);
+                    ready.extra = extra;
+                    ready
+                }))
+                .map_err(|p| format!("the extraction panicked: {}", panic_message(&*p)));
                 ExtractOut {
                     stamp,
-                    mesh: ready,
+                    mesh: result,
                     ms: t.elapsed().as_secs_f64() * 1e3,
                 }
             }));
@@ -256,12 +269,31 @@ fn poll_tasks(
             }
             state.mark_extract(&c);
         }
-        for slot in state.slots.values_mut() {
+        for (c, slot) in state.slots.iter_mut() {
             if let Some(out) = slot.work.extracting.as_mut().and_then(check_ready) {
                 slot.work.extracting = None;
                 stats.record_extraction(out.ms);
-                if out.stamp == slot.work.extract_stamp {
-                    slot.work.ready = Some(out.mesh);
+                if out.stamp != slot.work.extract_stamp {
+                    continue;
+                }
+                match out.mesh {
+                    Ok(mesh) => slot.work.ready = Some(mesh),
+                    // The chunk keeps the mesh it shows.
+                    Err(error) => {
+                        error!(
+                            "chunk {} (level {}) of volume {entity}: {error}",
+                            c.coord, c.level
+                        );
+                        if let Ok(mut ch) = chunks.get_mut(slot.entity()) {
+                            ch.status = ChunkStatus::Failed(error.clone());
+                        }
+                        failed.write(ChunkFailed {
+                            volume: entity,
+                            coord: c.coord,
+                            level: c.level,
+                            error,
+                        });
+                    }
                 }
             }
         }

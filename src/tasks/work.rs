@@ -17,7 +17,8 @@ pub(crate) struct BuildOut {
 /// A finished extraction.
 pub(crate) struct ExtractOut {
     pub(crate) stamp: u64,
-    pub(crate) mesh: ReadyMesh,
+    /// The mesh, or why the extraction failed.
+    pub(crate) mesh: Result<ReadyMesh, String>,
     pub(crate) ms: f64,
 }
 
