@@ -2,6 +2,8 @@
 //! [`RedoEdit`] steps and [`ReplaceField`] swaps to each volume's edited field
 //! (its [`kdcontour::edit::EditHistory`]) and queues a rebuild of exactly the
 //! chunks they reach (in [`KdContourSystems::Edits`](crate::KdContourSystems::Edits)).
+//! A volume marked [`RemoteEdits`] takes its edits from elsewhere (a server):
+//! its brushes, undos and redos are left to that subsystem.
 
 use crate::messages::{ApplyEdit, EditApplied, RedoEdit, ReplaceField, UndoEdit};
 use crate::settings::KdContourSettings;
@@ -10,6 +12,7 @@ use crate::stats::MainThreadClock;
 use crate::volume::KdVolume;
 use crate::KdContourStep;
 use bevy::prelude::*;
+use kdcontour::edit::EditOp;
 use kdcontour::world::ChunkKey;
 
 /// Applies [`ApplyEdit`], [`UndoEdit`], [`RedoEdit`] and [`ReplaceField`]
@@ -19,8 +22,36 @@ pub struct EditsPlugin;
 impl Plugin for EditsPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<MainThreadClock>()
+            .register_type::<RemoteEdits>()
             .add_systems(PostUpdate, apply_edits.in_set(KdContourStep::ApplyEdits));
     }
+}
+
+/// On a volume: its edit history follows another (a server's, through the
+/// `net` subsystem), so [`ApplyEdit`], [`UndoEdit`] and [`RedoEdit`] for it
+/// are not applied here; that subsystem sends them on as requests and applies
+/// what comes back.
+#[derive(Component, Clone, Copy, Debug, Default, Reflect)]
+#[reflect(Component)]
+pub struct RemoteEdits;
+
+/// Applies `op` to `state`'s history (keeping at most `steps` undo steps) and
+/// queues a rebuild of the chunks it reaches; returns them (none for an undo
+/// or redo with nothing to take back, which still ends the open stroke). The
+/// one path every edit takes, local or from the network.
+pub(crate) fn apply_op(
+    state: &mut VolumeState,
+    op: &EditOp,
+    steps: usize,
+) -> kdcontour::Result<Vec<ChunkKey>> {
+    let reaches = op.apply_to(state.history_mut(), steps)?;
+    let mut rebuilt = Vec::new();
+    for (center, reach) in reaches {
+        rebuilt.extend(state.rebuild_near(center, reach));
+    }
+    rebuilt.sort_by_key(|c| c.order());
+    rebuilt.dedup();
+    Ok(rebuilt)
 }
 
 /// Field swaps first (they put the edit log on the new field), then brushes in
@@ -34,11 +65,11 @@ pub(crate) fn apply_edits(
     mut applied: MessageWriter<EditApplied>,
     settings: Res<KdContourSettings>,
     clock: Res<MainThreadClock>,
-    mut volumes: Query<(&mut VolumeState, &mut KdVolume)>,
+    mut volumes: Query<(&mut VolumeState, &mut KdVolume, Has<RemoteEdits>)>,
 ) {
     let _time = clock.measure();
     for msg in replaced.read() {
-        let Ok((mut state, mut vol)) = volumes.get_mut(msg.volume) else {
+        let Ok((mut state, mut vol, _)) = volumes.get_mut(msg.volume) else {
             warn!("ReplaceField: {} is not a meshed volume", msg.volume);
             continue;
         };
@@ -61,53 +92,42 @@ pub(crate) fn apply_edits(
         applied.write(EditApplied {
             volume: msg.volume,
             rebuilt,
+            op: None,
         });
     }
-    for edit in edits.read() {
-        let Ok((mut state, _)) = volumes.get_mut(edit.volume) else {
-            warn!("ApplyEdit: {} is not a meshed volume", edit.volume);
-            continue;
-        };
-        let brush = edit.brush.clone();
-        let steps = settings.undo_steps;
-        let (center, reach) = match state
-            .history_mut()
-            .apply(brush, edit.continues_stroke, steps)
-        {
-            Ok(r) => r,
-            Err(e) => {
-                warn!("ApplyEdit on {}: {e}", edit.volume);
-                continue;
-            }
-        };
-        let rebuilt = state.rebuild_near(center, reach);
-        applied.write(EditApplied {
-            volume: edit.volume,
-            rebuilt,
-        });
-    }
-    let steps = undos
+    let ops = edits
         .read()
-        .map(|m| (m.volume, true))
-        .chain(redos.read().map(|m| (m.volume, false)));
-    for (volume, undo) in steps {
-        let Ok((mut state, _)) = volumes.get_mut(volume) else {
-            warn!("UndoEdit / RedoEdit: {volume} is not a meshed volume");
+        .map(|e| {
+            let op = EditOp::Apply {
+                brush: e.brush.clone(),
+                continues_stroke: e.continues_stroke,
+            };
+            (e.volume, op)
+        })
+        .chain(undos.read().map(|m| (m.volume, EditOp::Undo)))
+        .chain(redos.read().map(|m| (m.volume, EditOp::Redo)));
+    for (volume, op) in ops {
+        let Ok((mut state, _, remote)) = volumes.get_mut(volume) else {
+            warn!("ApplyEdit / UndoEdit / RedoEdit: {volume} is not a meshed volume");
             continue;
         };
-        let history = state.history_mut();
-        let reaches = if undo { history.undo() } else { history.redo() };
-        let Some(reaches) = reaches else {
-            let what = if undo { "undo" } else { "redo" };
-            info!("KdVolume {volume}: nothing to {what}");
+        if remote {
+            // The net subsystem sends it to the server instead.
             continue;
-        };
-        let mut rebuilt = Vec::new();
-        for (center, reach) in reaches {
-            rebuilt.extend(state.rebuild_near(center, reach));
         }
-        rebuilt.sort_by_key(|c| c.order());
-        rebuilt.dedup();
-        applied.write(EditApplied { volume, rebuilt });
+        match apply_op(&mut state, &op, settings.undo_steps) {
+            Ok(rebuilt) => {
+                if rebuilt.is_empty() && matches!(op, EditOp::Undo | EditOp::Redo) {
+                    let what = if op == EditOp::Undo { "undo" } else { "redo" };
+                    info!("KdVolume {volume}: nothing to {what}");
+                }
+                applied.write(EditApplied {
+                    volume,
+                    rebuilt,
+                    op: Some(op),
+                });
+            }
+            Err(e) => warn!("ApplyEdit on {volume}: {e}"),
+        }
     }
 }

@@ -48,6 +48,7 @@
 //! | `persist` | [`PersistPlugin`] | saves and loads the edits of [`KdSave`] volumes |
 //! | `debug` (feature `debug`) | `DebugPlugin` | colours chunks by LOD band |
 //! | `colliders` (feature `avian`) | `CollidersPlugin` | avian3d trimesh colliders near the camera and `ColliderAnchor`s, built in the meshing tasks |
+//! | `net` (feature `replicon`) | `NetPlugin` (added by the app, not in the group) | multiplayer: a server's accepted edits reach every client |
 //!
 //! [`material`] holds [`TerrainMaterial`] (its plugin, [`TerrainMaterialPlugin`],
 //! is for apps that render and is not in the group): the field's materials per
@@ -79,6 +80,10 @@ use bevy::prelude::*;
 pub use avian3d;
 #[cfg(feature = "inspector")]
 pub use bevy_inspector_egui;
+#[cfg(feature = "replicon")]
+pub use bevy_replicon;
+#[cfg(feature = "replicon")]
+pub use bevy_replicon_renet;
 pub use kdcontour;
 
 #[cfg(feature = "avian")]
@@ -92,6 +97,8 @@ mod lod;
 pub mod material;
 mod mesh;
 mod messages;
+#[cfg(feature = "replicon")]
+pub mod net;
 #[cfg(feature = "egui")]
 pub mod panel;
 pub mod persist;
@@ -109,7 +116,7 @@ mod workers;
 pub use colliders::{ColliderAnchor, ColliderSettings, CollidersPlugin};
 #[cfg(feature = "debug")]
 pub use debug::DebugPlugin;
-pub use edits::EditsPlugin;
+pub use edits::{EditsPlugin, RemoteEdits};
 pub use horizon::HorizonKeep;
 pub use lod::LodPlugin;
 pub use material::{TerrainExtension, TerrainMaterial, TerrainMaterialPlugin, TerrainTextures};
@@ -175,9 +182,15 @@ pub enum KdContourStep {
     /// In [`KdContourSystems::Edits`]: volumes whose field or iso changed swap
     /// their field and replay their edits.
     SyncVolumes,
+    /// In [`KdContourSystems::Edits`]: edits from the network are taken in
+    /// (the `net` subsystem, crate feature `replicon`).
+    ReceiveEdits,
     /// In [`KdContourSystems::Edits`]: [`ApplyEdit`], [`UndoEdit`] and
     /// [`RedoEdit`] messages are applied.
     ApplyEdits,
+    /// In [`KdContourSystems::Edits`]: what was applied goes out to the network
+    /// (the `net` subsystem).
+    SendEdits,
     /// In [`KdContourSystems::Lod`]: the chunks to load, drop or give colliders
     /// are chosen.
     ChooseChunks,

@@ -6,7 +6,7 @@
 
 use crate::volume::SharedField;
 use bevy::prelude::*;
-use kdcontour::edit::Brush;
+use kdcontour::edit::{Brush, EditOp};
 use kdcontour::world::ChunkKey;
 
 /// Apply a brush to a volume.
@@ -77,7 +77,8 @@ pub struct ReplaceField {
 }
 
 /// An edit, an undo, a redo or a [`ReplaceField`] was applied; these chunks
-/// are being rebuilt.
+/// are being rebuilt (none for an undo or redo with nothing to take back: it
+/// still ends the open stroke).
 #[derive(Message, Clone, Debug)]
 pub struct EditApplied {
     /// The volume entity.
@@ -85,6 +86,9 @@ pub struct EditApplied {
     /// Chunks whose samples the brush reaches, at every level that covers it
     /// (level 0 in a one-level volume).
     pub rebuilt: Vec<ChunkKey>,
+    /// What was applied to the volume's edit history, in the order applied
+    /// (`None`: a [`ReplaceField`]).
+    pub op: Option<EditOp>,
 }
 
 /// A chunk now shows a new mesh.

@@ -43,7 +43,9 @@ impl Plugin for VolumePlugin {
                         KdContourStep::CreateVolumes,
                         KdContourStep::LoadEdits,
                         KdContourStep::SyncVolumes,
+                        KdContourStep::ReceiveEdits,
                         KdContourStep::ApplyEdits,
+                        KdContourStep::SendEdits,
                     )
                         .chain()
                         .in_set(KdContourSystems::Edits),

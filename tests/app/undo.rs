@@ -4,14 +4,14 @@
 //! are rebuilt; a redo gives back the meshes it took; a new edit after an undo
 //! drops the redo tail; and the history survives a restart through the save.
 
-use crate::common::{app_with, applied_edits, assert_shown_match_fresh, settle, shown};
+use crate::common::{app_with, applied_edits, assert_shown_match_fresh, meshes, settle};
 use bevy::prelude::*;
 use bevy_kdcontour::persist::SaveState;
 use bevy_kdcontour::prelude::*;
 use kdcontour::edit::EditedField;
 use kdcontour::field::FnField;
 use kdcontour::Field;
-use std::collections::{BTreeMap, HashSet};
+use std::collections::HashSet;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -89,18 +89,6 @@ fn strokes(n: usize) -> Vec<Brush> {
 /// The base field with the first `n` strokes replayed from scratch.
 fn replayed(n: usize) -> EditedField {
     EditedField::replay(hills(), &strokes(n)).unwrap()
-}
-
-/// Every shown chunk's mesh, by chunk.
-type Meshes = BTreeMap<(u32, [i32; 3]), Option<(Vec<[f32; 3]>, Vec<u32>)>>;
-
-fn meshes(app: &App, volume: Entity) -> Meshes {
-    let state = app.world().get::<VolumeState>(volume).unwrap();
-    state
-        .shown_chunks()
-        .into_iter()
-        .map(|(k, e)| ((k.level, k.coord.to_array()), shown(app, e)))
-        .collect()
 }
 
 fn history(app: &App, volume: Entity) -> (usize, usize, Vec<Brush>) {

@@ -8,6 +8,7 @@ use bevy::prelude::*;
 use bevy_kdcontour::headless::{run_until_settled, HeadlessPlugins};
 use bevy_kdcontour::prelude::*;
 use kdcontour::{Field, IndexedMesh, World};
+use std::collections::BTreeMap;
 
 /// The edits applied since the last call (drained).
 pub fn applied_edits(app: &mut App) -> Vec<EditApplied> {
@@ -102,4 +103,16 @@ pub fn assert_shown_match_fresh(app: &App, volume: Entity, field: &dyn Field) {
         }
     }
     assert!(meshed > 10, "only {meshed} chunks show a mesh");
+}
+
+/// Every shown chunk's mesh, by chunk.
+pub type Meshes = BTreeMap<(u32, [i32; 3]), Option<(Vec<[f32; 3]>, Vec<u32>)>>;
+
+pub fn meshes(app: &App, volume: Entity) -> Meshes {
+    let state = app.world().get::<VolumeState>(volume).unwrap();
+    state
+        .shown_chunks()
+        .into_iter()
+        .map(|(k, e)| ((k.level, k.coord.to_array()), shown(app, e)))
+        .collect()
 }

@@ -78,6 +78,13 @@ impl Brush {
         }
     }
 
+    /// Checks the brush as applying it would (a bounded shape of finite
+    /// values, a positive blend radius) and returns the region it can change
+    /// (center and radius), without applying it.
+    pub fn reach(&self) -> Result<(Vec3, f32)> {
+        Ok(EditedField::compile(self.clone())?.reach)
+    }
+
     /// This brush with material `id`.
     pub fn with_material(self, id: u8) -> Brush {
         Brush {

@@ -67,11 +67,11 @@ pub struct Snapshot {
     pub steps: UndoSteps,
 }
 
-/// The authority: numbers and applies the ops it accepts, and keeps the newest
-/// of them to send again to a replica that missed some.
+/// The authority's numbering: numbers every op applied to the authority's
+/// history, and keeps the newest of them to send again to a replica that
+/// missed some. The history itself stays with its owner (a volume), which
+/// applies each op and then records it here, or calls [`Sequencer::accept`].
 pub struct Sequencer {
-    history: EditHistory,
-    max_steps: usize,
     /// The number of the last op accepted.
     last: u64,
     /// The newest ops, oldest first (op `last - len + 1 + i` is `recent[i]`).
@@ -81,21 +81,14 @@ pub struct Sequencer {
 }
 
 impl Sequencer {
-    /// An authority over `history` (its brushes so far come before op 1),
-    /// keeping at most `max_steps` undo steps and the newest `keep` ops.
-    pub fn new(history: EditHistory, max_steps: usize, keep: usize) -> Self {
+    /// A numbering from op 1 (the history's brushes so far come before it),
+    /// keeping the newest `keep` ops.
+    pub fn new(keep: usize) -> Self {
         Sequencer {
-            history,
-            max_steps,
             last: 0,
             recent: VecDeque::new(),
             keep,
         }
-    }
-
-    /// The authority's history.
-    pub fn history(&self) -> &EditHistory {
-        &self.history
     }
 
     /// The number of the last op accepted (0: none).
@@ -103,17 +96,29 @@ impl Sequencer {
         self.last
     }
 
-    /// Applies `op` and numbers it; returns its number and the reaches it
-    /// changed. An op the history refuses (a brush the core rejects) gets no
-    /// number and changes nothing.
-    pub fn accept(&mut self, op: EditOp) -> Result<(u64, Vec<(glam::Vec3, f32)>)> {
-        let reaches = op.apply_to(&mut self.history, self.max_steps)?;
+    /// Numbers `op`, which its owner has just applied to the authority's
+    /// history; returns its number.
+    pub fn record(&mut self, op: EditOp) -> u64 {
         self.last += 1;
         self.recent.push_back(op);
         if self.recent.len() > self.keep {
             self.recent.pop_front();
         }
-        Ok((self.last, reaches))
+        self.last
+    }
+
+    /// Applies `op` to `history` (keeping at most `max_steps` undo steps) and
+    /// numbers it; returns its number and the reaches it changed. An op the
+    /// history refuses (a brush the core rejects) gets no number and changes
+    /// nothing.
+    pub fn accept(
+        &mut self,
+        history: &mut EditHistory,
+        max_steps: usize,
+        op: EditOp,
+    ) -> Result<(u64, Vec<(glam::Vec3, f32)>)> {
+        let reaches = op.apply_to(history, max_steps)?;
+        Ok((self.record(op), reaches))
     }
 
     /// The ops numbered in `range` (up to the last), with their numbers; `None`
@@ -132,10 +137,10 @@ impl Sequencer {
         )
     }
 
-    /// The whole history for a replica that joins (or rejoins): saved
-    /// (compacted) as of the last op, with that op's number.
-    pub fn snapshot(&self) -> Snapshot {
-        let (log, steps) = self.history.saved();
+    /// The authority's whole `history` for a replica that joins (or rejoins):
+    /// saved (compacted) as of the last op, with that op's number.
+    pub fn snapshot(&self, history: &EditHistory) -> Snapshot {
+        let (log, steps) = history.saved();
         Snapshot {
             through: self.last,
             log,
@@ -144,10 +149,11 @@ impl Sequencer {
     }
 }
 
-/// A replica: applies the authority's ops in order, each once.
+/// A replica's place in the authority's numbering: applies the authority's
+/// ops to the replica's history in order, each once. The history stays with
+/// its owner (a volume).
+#[derive(Clone, Debug, Default)]
 pub struct Replica {
-    history: EditHistory,
-    max_steps: usize,
     /// The last op applied.
     applied: u64,
     /// Ops that came early, by number.
@@ -155,21 +161,19 @@ pub struct Replica {
 }
 
 impl Replica {
-    /// A replica starting from `snapshot` on `base` (the shared field with no
-    /// brushes), keeping at most `max_steps` undo steps as the authority does.
-    pub fn join(base: EditedField, snapshot: Snapshot, max_steps: usize) -> Result<Self> {
-        let history = EditHistory::restore(base, snapshot.log, &snapshot.steps)?;
-        Ok(Replica {
-            history,
-            max_steps,
-            applied: snapshot.through,
+    /// A replica whose history holds the authority's ops up to `through`.
+    pub fn new(through: u64) -> Self {
+        Replica {
+            applied: through,
             early: BTreeMap::new(),
-        })
+        }
     }
 
-    /// The replica's history.
-    pub fn history(&self) -> &EditHistory {
-        &self.history
+    /// A replica starting from `snapshot` on `base` (the shared field with no
+    /// brushes), and its history.
+    pub fn join(base: EditedField, snapshot: Snapshot) -> Result<(Self, EditHistory)> {
+        let history = EditHistory::restore(base, snapshot.log, &snapshot.steps)?;
+        Ok((Replica::new(snapshot.through), history))
     }
 
     /// The number of the last op applied.
@@ -177,21 +181,45 @@ impl Replica {
         self.applied
     }
 
-    /// Takes op `n`: applies it and every early op it unblocks, in order, and
-    /// returns the reaches they changed. An op already applied, or already
-    /// waiting, is ignored. An op the history refuses is an error (the
-    /// authority accepted it, so the two histories differ: rejoin).
-    pub fn receive(&mut self, n: u64, op: EditOp) -> Result<Vec<(glam::Vec3, f32)>> {
-        if n <= self.applied {
-            return Ok(Vec::new());
-        }
-        self.early.entry(n).or_insert(op);
+    /// Takes op `n`: applies it to `history` (keeping at most `max_steps` undo
+    /// steps), with every early op it unblocks, in order, and returns the
+    /// reaches they changed. An op already applied, or already waiting, is
+    /// ignored. An op the history refuses is an error (the authority accepted
+    /// it, so the two histories differ: rejoin).
+    pub fn receive(
+        &mut self,
+        history: &mut EditHistory,
+        max_steps: usize,
+        n: u64,
+        op: EditOp,
+    ) -> Result<Vec<(glam::Vec3, f32)>> {
         let mut reaches = Vec::new();
-        while let Some(op) = self.early.remove(&(self.applied + 1)) {
-            reaches.extend(op.apply_to(&mut self.history, self.max_steps)?);
-            self.applied += 1;
+        for op in self.ready(n, op) {
+            reaches.extend(op.apply_to(history, max_steps)?);
         }
         Ok(reaches)
+    }
+
+    /// Takes op `n` and returns the ops now due, in order (it and every early
+    /// op it unblocks), counting them applied: the caller applies them to the
+    /// replica's history in that order. An op already applied, or already
+    /// waiting, gives nothing.
+    pub fn ready(&mut self, n: u64, op: EditOp) -> Vec<EditOp> {
+        if n <= self.applied {
+            return Vec::new();
+        }
+        self.early.entry(n).or_insert(op);
+        let mut due = Vec::new();
+        while let Some(op) = self.early.remove(&(self.applied + 1)) {
+            due.push(op);
+            self.applied += 1;
+        }
+        due
+    }
+
+    /// Ops that arrived ahead of a missing one and wait for it.
+    pub fn waiting(&self) -> usize {
+        self.early.len()
     }
 
     /// The ops to ask for again: from the first missing one up to the first
@@ -271,8 +299,9 @@ mod tests {
             rng
         };
         let steps = 12;
-        let mut server = Sequencer::new(EditHistory::new(base()), steps, 12);
-        let join = |s: &Sequencer| Replica::join(base(), s.snapshot(), steps).unwrap();
+        let mut server = (Sequencer::new(12), EditHistory::new(base()));
+        let join =
+            |s: &(Sequencer, EditHistory)| Replica::join(base(), s.0.snapshot(&s.1)).unwrap();
         let mut clients = [join(&server), join(&server), join(&server)];
         let mut rejoined = 0;
         // Messages in flight to each client: (deliver at round, number, op).
@@ -280,7 +309,7 @@ mod tests {
         let mut applied_twice = 0;
         for round in 0..600u64 {
             let o = op(round, next());
-            let (n, _) = server.accept(o.clone()).unwrap();
+            let (n, _) = server.0.accept(&mut server.1, steps, o.clone()).unwrap();
             for w in wire.iter_mut() {
                 match next() % 10 {
                     0 => {} // lost
@@ -296,19 +325,19 @@ mod tests {
                 let (now, later): (Vec<_>, Vec<_>) = w.drain(..).partition(|m| m.0 <= round);
                 *w = later;
                 for (_, n, o) in now {
-                    let before = c.applied();
-                    c.receive(n, o).unwrap();
-                    assert!(c.applied() >= before);
+                    let before = c.0.applied();
+                    c.0.receive(&mut c.1, steps, n, o).unwrap();
+                    assert!(c.0.applied() >= before);
                     applied_twice += (n <= before) as usize;
                 }
                 // Every tenth round a client asks for what it misses (and
                 // starts again from a snapshot if that is no longer kept).
                 if round % 10 == 0 {
-                    if let Some(r) = c.missing_before(server.last()) {
-                        match server.ops(r) {
+                    if let Some(r) = c.0.missing_before(server.0.last()) {
+                        match server.0.ops(r) {
                             Some(ops) => {
                                 for (n, o) in ops {
-                                    c.receive(n, o).unwrap();
+                                    c.0.receive(&mut c.1, steps, n, o).unwrap();
                                 }
                             }
                             None => {
@@ -335,50 +364,51 @@ mod tests {
         // Settle: deliver the rest and fill every gap.
         for (c, w) in clients.iter_mut().zip(wire.iter_mut()) {
             for (_, n, o) in w.drain(..) {
-                c.receive(n, o).unwrap();
+                c.0.receive(&mut c.1, steps, n, o).unwrap();
             }
-            while let Some(r) = c.missing_before(server.last()) {
-                match server.ops(r) {
+            while let Some(r) = c.0.missing_before(server.0.last()) {
+                match server.0.ops(r) {
                     Some(ops) => {
                         for (n, o) in ops {
-                            c.receive(n, o).unwrap();
+                            c.0.receive(&mut c.1, steps, n, o).unwrap();
                         }
                     }
                     None => *c = join(&server),
                 }
             }
-            assert_eq!(c.applied(), server.last());
-            same(c.history(), server.history());
+            assert_eq!(c.0.applied(), server.0.last());
+            same(&c.1, &server.1);
         }
     }
 
     #[test]
     fn a_late_joiner_starts_from_the_compacted_history() {
-        let mut server = Sequencer::new(EditHistory::new(base()), 8, 100);
+        let (mut server, mut history) = (Sequencer::new(100), EditHistory::new(base()));
         for i in 0..500 {
-            server.accept(op(i, i * 3 + 2)).unwrap();
+            server.accept(&mut history, 8, op(i, i * 3 + 2)).unwrap();
         }
-        let snapshot = server.snapshot();
+        let snapshot = server.snapshot(&history);
         assert_eq!(snapshot.through, 500);
         let kept = snapshot.log.len();
-        let mut late = Replica::join(base(), snapshot, 8).unwrap();
-        same(late.history(), server.history());
+        let (mut late, mut late_history) = Replica::join(base(), snapshot).unwrap();
+        same(&late_history, &history);
         eprintln!("500 ops: a snapshot of {kept} brushes");
         // Only the newest 100 ops are kept one by one.
         assert!(server.ops(1..10).is_none());
         assert_eq!(server.ops(401..403).unwrap().len(), 2);
         for i in 500..520 {
-            let (n, _) = server.accept(op(i, i)).unwrap();
-            late.receive(n, server.ops(n..n + 1).unwrap()[0].1.clone())
-                .unwrap();
+            let (n, _) = server.accept(&mut history, 8, op(i, i)).unwrap();
+            let o = server.ops(n..n + 1).unwrap()[0].1.clone();
+            late.receive(&mut late_history, 8, n, o).unwrap();
         }
-        same(late.history(), server.history());
+        same(&late_history, &history);
         assert_eq!(late.missing_before(server.last()), None);
         // A gap is reported as the range to ask for.
-        let (a, _) = server.accept(EditOp::Undo).unwrap();
-        let (b, _) = server.accept(EditOp::Redo).unwrap();
-        late.receive(b, EditOp::Redo).unwrap();
+        let (a, _) = server.accept(&mut history, 8, EditOp::Undo).unwrap();
+        let (b, _) = server.accept(&mut history, 8, EditOp::Redo).unwrap();
+        late.receive(&mut late_history, 8, b, EditOp::Redo).unwrap();
         assert_eq!(late.missing(), Some(a..b));
+        assert_eq!(late.waiting(), 1);
         assert_eq!(late.applied(), a - 1);
     }
 }
