@@ -51,6 +51,8 @@ pub struct Follower {
     early: Vec<(u64, EditOp)>,
     /// The gap last asked for.
     asked_gap: Option<Range<u64>>,
+    /// The server has not heard this player's brush cursor since it joined.
+    cursor_unsent: bool,
 }
 
 impl Follower {
@@ -74,9 +76,10 @@ fn track_volumes(mut commands: Commands, new: Query<Entity, NewShared<Follower>>
     }
 }
 
-/// The connection dropped: join again when it is back (asking only for what
-/// was missed).
-fn dropped(mut followers: Query<&mut Follower>) {
+/// The connection dropped: the other players' cursors go; join again when it
+/// is back (asking only for what was missed).
+fn dropped(mut followers: Query<&mut Follower>, mut peers: ResMut<PeerCursors>) {
+    peers.0.clear();
     for mut f in &mut followers {
         f.asked = false;
         f.joined = false;
@@ -193,6 +196,7 @@ fn receive_replies(
                 }
                 follower.session = Some(session);
                 follower.joined = true;
+                follower.cursor_unsent = true;
                 follower.asked_gap = None;
                 joined.write(NetJoined {
                     volume: entity,

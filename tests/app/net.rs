@@ -225,6 +225,15 @@ fn stats(app: &App) -> NetStats {
     app.world().resource::<NetStats>().clone()
 }
 
+/// A brush cursor on `volume` at x.
+fn aim(volume: Entity, x: f32) -> LocalCursor {
+    LocalCursor(Some(Cursor {
+        volume,
+        at: Vec3::new(x, 8.0, 5.0),
+        radius: 2.0,
+    }))
+}
+
 #[test]
 fn two_clients_and_the_server_edit_at_once_and_converge() {
     // Frames here are a few milliseconds: allow the dabs a test sends.
@@ -235,6 +244,8 @@ fn two_clients_and_the_server_edit_at_once_and_converge() {
     let (mut s, sv, addr) = server(settings);
     let (mut a, av) = client(addr, 1, FINGERPRINT);
     let (mut b, bv) = client(addr, 2, FINGERPRINT);
+    // Client b aims before it has joined: the server hears it once it has.
+    b.insert_resource(aim(bv, 3.0));
     converge(&mut s, sv, &mut [(&mut a, av), (&mut b, bv)]);
     // 300 frames: each client dabs every 3rd frame and undoes now and then,
     // the server (playing too) every 10th.
@@ -286,16 +297,8 @@ fn two_clients_and_the_server_edit_at_once_and_converge() {
     assert_eq!(stats(&b).ops_applied, n);
     assert_same(&s, sv, &[(&a, av), (&b, bv)]);
     // Each player sees where the others' brushes aim.
-    let aim = |volume, x: f32| {
-        LocalCursor(Some(Cursor {
-            volume,
-            at: Vec3::new(x, 8.0, 5.0),
-            radius: 2.0,
-        }))
-    };
     s.insert_resource(aim(sv, 1.0));
     a.insert_resource(aim(av, 2.0));
-    b.insert_resource(aim(bv, 3.0));
     let start = Instant::now();
     let seen = |app: &App| {
         let mut xs: Vec<f32> = app
