@@ -39,6 +39,7 @@ use bevy_kdcontour::kdcontour::field::raycast;
 use bevy_kdcontour::kdcontour::field::terrain::{Density, DensityParams};
 use bevy_kdcontour::kdcontour::material::terrain_ids;
 use bevy_kdcontour::kdcontour::Field;
+use bevy_kdcontour::net::{Cursor, Follower, LocalCursor, NetVolume, PeerCursors};
 use bevy_kdcontour::panel::KdContourPanel;
 use bevy_kdcontour::prelude::*;
 use clap::Parser;
@@ -78,6 +79,8 @@ struct Args {
     #[arg(long)]
     walk: bool,
     #[command(flatten)]
+    net: common::net::NetArgs,
+    #[command(flatten)]
     shot: ShotArgs,
 }
 
@@ -93,6 +96,8 @@ struct Sculpt {
     /// A button has been held since the last dab: the next one continues its
     /// stroke (one undo takes the stroke back).
     stroke: bool,
+    /// In screenshot mode, where the brush is shown aiming (there is no mouse).
+    scripted_aim: Option<Vec3>,
 }
 
 fn main() {
@@ -130,7 +135,8 @@ fn main() {
     let field: Arc<dyn Field> = Arc::new(Density::new(params.clone()));
     let scripted = args.shot.screenshot.is_some();
     // Screenshots show the same terrain every time: no save read or written.
-    let save = (!args.no_save && !scripted).then(|| {
+    // A joining player's terrain is the host's: nothing to save either.
+    let save = (!args.no_save && !scripted && !args.net.joins()).then(|| {
         let path = args
             .save
             .clone()
@@ -169,6 +175,8 @@ fn main() {
         res: args.chunk_res,
         scripted,
         save,
+        shared: args.net.on().then(|| KdSave::fingerprint_of(&params)),
+        joins: args.net.joins(),
     })
     // Walking stands on the chunk colliders (`common::add_plugins` starts them off).
     .insert_resource(bevy_kdcontour::ColliderSettings::default())
@@ -192,6 +200,18 @@ fn main() {
     if args.walk {
         app.insert_resource(common::walk::WalkAtStart);
     }
+    common::net::add(&mut app, &args.net);
+    if args.net.on() {
+        app.add_systems(Update, share_aim.after(sculpt));
+        if scripted {
+            // The picture waits for both players' edits and brushes.
+            app.insert_resource(common::ShotWait {
+                open: false,
+                linger: std::time::Duration::from_secs(90),
+            })
+            .add_systems(Update, open_gate);
+        }
+    }
     app.run();
 }
 
@@ -205,6 +225,10 @@ struct Seed {
     res: u32,
     scripted: bool,
     save: Option<KdSave>,
+    /// Played with others: the shared volume's fingerprint.
+    shared: Option<String>,
+    /// This run joins another's game.
+    joins: bool,
 }
 
 fn setup(
@@ -234,6 +258,11 @@ fn setup(
         .id();
     if let Some(save) = &seed.save {
         commands.entity(volume).insert(save.clone());
+    }
+    if let Some(fingerprint) = &seed.shared {
+        commands
+            .entity(volume)
+            .insert(NetVolume::new(1, fingerprint.clone()));
     }
     let (fly, transform) = if seed.overview {
         // From high above, looking down at the rings of levels around a LOD
@@ -284,6 +313,7 @@ fn setup(
         aim: None,
         paint: None,
         stroke: false,
+        scripted_aim: None,
     });
 }
 
@@ -357,7 +387,9 @@ fn sculpt(
     ) else {
         return;
     };
-    sculpt.aim = aim(window, camera, state, 400.0);
+    sculpt.aim = sculpt
+        .scripted_aim
+        .or_else(|| aim(window, camera, state, 400.0));
     sculpt.cooldown -= time.delta_secs();
     let (op, material) = if buttons.pressed(MouseButton::Left) {
         match sculpt.paint {
@@ -431,12 +463,17 @@ fn toggle_levels(keys: Res<ButtonInput<KeyCode>>, mut settings: ResMut<KdContour
 fn scripted_edits(
     seed: Res<Seed>,
     mut done: Local<bool>,
-    sculpt: Res<Sculpt>,
+    mut sculpt: ResMut<Sculpt>,
     cameras: Query<(&Camera, &GlobalTransform), With<FlyCam>>,
     volumes: Query<&VolumeState>,
+    followers: Query<&Follower>,
     mut edits: MessageWriter<ApplyEdit>,
 ) {
     if !seed.scripted || *done {
+        return;
+    }
+    // A joining player edits once the host's terrain has arrived.
+    if followers.get(sculpt.volume).is_ok_and(|f| !f.joined()) {
         return;
     }
     let (Ok((camera, tf)), Ok(state)) = (cameras.single(), volumes.get(sculpt.volume)) else {
@@ -446,24 +483,39 @@ fn scripted_edits(
         return;
     };
     *done = true;
-    // A crater (its walls dirt), a mound, and a patch painted snow.
-    for (fx, fy, op, r, material) in [
-        (
-            0.5,
-            0.55,
-            BrushOp::SmoothSubtract { radius: 2.0 },
-            11.0,
-            terrain_ids::DIRT,
-        ),
-        (
-            0.3,
-            0.6,
-            BrushOp::SmoothAdd { radius: 3.0 },
-            8.0,
-            terrain_ids::DIRT,
-        ),
-        (0.72, 0.62, BrushOp::Paint, 9.0, terrain_ids::SNOW),
-    ] {
+    // A crater (its walls dirt), a mound, and a patch painted snow. With two
+    // players, each digs, raises and paints its own three, right of the panel.
+    let dig = BrushOp::SmoothSubtract { radius: 2.0 };
+    let raise = BrushOp::SmoothAdd { radius: 3.0 };
+    let brushes = match (seed.shared.is_some(), seed.joins) {
+        (false, _) => [
+            (0.5, 0.55, dig, 11.0, terrain_ids::DIRT),
+            (0.3, 0.6, raise, 8.0, terrain_ids::DIRT),
+            (0.72, 0.62, BrushOp::Paint, 9.0, terrain_ids::SNOW),
+        ],
+        (true, false) => [
+            (0.5, 0.6, dig, 10.0, terrain_ids::DIRT),
+            (0.85, 0.6, raise, 7.0, terrain_ids::DIRT),
+            (0.62, 0.45, BrushOp::Paint, 6.0, terrain_ids::SNOW),
+        ],
+        (true, true) => [
+            (0.7, 0.75, dig, 9.0, terrain_ids::DIRT),
+            (0.6, 0.52, raise, 6.0, terrain_ids::ROCK),
+            (0.9, 0.47, BrushOp::Paint, 6.0, terrain_ids::GRASS),
+        ],
+    };
+    // Each player's brush shown aiming somewhere (the other sees it too).
+    let aim_at = if seed.joins {
+        (0.78, 0.58)
+    } else {
+        (0.55, 0.5)
+    };
+    let ray = camera.viewport_to_world(tf, size * Vec2::new(aim_at.0, aim_at.1));
+    if let (Some(_), Ok(ray)) = (&seed.shared, ray) {
+        sculpt.scripted_aim = raycast(state.field(), ray.origin, *ray.direction, 400.0, 0.5)
+            .map(|t| ray.origin + *ray.direction * t);
+    }
+    for (fx, fy, op, r, material) in brushes {
         let Ok(ray) = camera.viewport_to_world(tf, size * Vec2::new(fx, fy)) else {
             continue;
         };
@@ -474,4 +526,31 @@ fn scripted_edits(
             ));
         }
     }
+}
+
+/// Where this player's brush aims, for the others to see.
+fn share_aim(sculpt: Res<Sculpt>, mut cursor: ResMut<LocalCursor>) {
+    let now = LocalCursor(sculpt.aim.map(|at| Cursor {
+        volume: sculpt.volume,
+        at,
+        radius: sculpt.radius,
+    }));
+    if *cursor != now {
+        *cursor = now;
+    }
+}
+
+/// In a multiplayer screenshot: the picture waits until both players' edits
+/// are in the terrain and the other's brush is seen (each app then stays 90 s,
+/// so the other's picture shows its brush too).
+fn open_gate(
+    sculpt: Res<Sculpt>,
+    volumes: Query<&VolumeState>,
+    peers: Res<PeerCursors>,
+    mut wait: ResMut<common::ShotWait>,
+) {
+    let edits = volumes
+        .get(sculpt.volume)
+        .map_or(0, |s| s.history().brush_count());
+    wait.open = edits >= 6 && !peers.0.is_empty();
 }

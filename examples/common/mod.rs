@@ -3,6 +3,7 @@
 //! sun with sky light.
 #![allow(dead_code)] // not every example uses every helper
 
+pub mod net;
 pub mod walk;
 
 use bevy::prelude::*;
@@ -89,6 +90,17 @@ pub fn add_plugins<'a>(
     })
 }
 
+/// What an example waits for besides settled meshes (another player's edits,
+/// in a multiplayer picture).
+#[derive(Resource, Default)]
+pub struct ShotWait {
+    /// The picture may be taken.
+    pub open: bool,
+    /// After its picture, the app keeps running this long before it exits
+    /// (the other player's picture needs this one's brush).
+    pub linger: std::time::Duration,
+}
+
 /// Adds the screenshot harness when `--screenshot` was given.
 pub struct ShotPlugin(pub ShotArgs);
 
@@ -101,6 +113,8 @@ struct ShotState {
     /// Set by the observer once the picture is saved: distinct colours seen.
     colours: Option<usize>,
     after: u32,
+    /// When the picture was saved.
+    saved_at: Option<std::time::Instant>,
 }
 
 impl Plugin for ShotPlugin {
@@ -122,6 +136,7 @@ fn take_screenshot(
     mut state: ResMut<ShotState>,
     stats: Res<KdContourStats>,
     volumes: Query<&VolumeState>,
+    wait: Option<Res<ShotWait>>,
     mut exit: MessageWriter<AppExit>,
 ) {
     let Some(path) = args.screenshot.clone() else {
@@ -129,9 +144,13 @@ fn take_screenshot(
     };
     state.frames += 1;
     if let Some(colours) = state.colours {
-        // Give the PNG writer a frame, then leave.
+        // Give the PNG writer a frame (and a lingering app its time), then leave.
         state.after += 1;
-        if state.after >= 2 {
+        let saved = *state.saved_at.get_or_insert_with(std::time::Instant::now);
+        let stay = wait
+            .as_ref()
+            .map_or(std::time::Duration::ZERO, |w| w.linger);
+        if state.after >= 2 && saved.elapsed() >= stay {
             if colours < 2 {
                 error!(
                     "screenshot {}: the picture is one flat colour",
@@ -152,7 +171,9 @@ fn take_screenshot(
     if state.taken {
         return;
     }
-    let settled = volumes.iter().all(|v| v.is_settled()) && stats.queued == 0;
+    let settled = volumes.iter().all(|v| v.is_settled())
+        && stats.queued == 0
+        && wait.as_ref().is_none_or(|w| w.open);
     if state.frames.is_multiple_of(50) {
         info!(
             "frame {}: {} of {} chunks meshed, {} triangles, {} tasks running, {} queued, \
