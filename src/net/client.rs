@@ -13,6 +13,7 @@ use crate::messages::{ApplyEdit, EditApplied, RedoEdit, UndoEdit};
 use crate::persist::file;
 use crate::settings::KdContourSettings;
 use crate::state::VolumeState;
+use crate::stats::MainThreadClock;
 use crate::KdContourStep;
 use bevy::prelude::*;
 use bevy_replicon::prelude::*;
@@ -105,7 +106,9 @@ fn receive_replies(
     mut stats: ResMut<NetStats>,
     mut peers: ResMut<PeerCursors>,
     mut volumes: Query<(Entity, &NetVolume, &mut VolumeState, &mut Follower)>,
+    clock: Res<MainThreadClock>,
 ) {
+    let _time = clock.measure();
     let steps = settings.undo_steps;
     for msg in wire.read() {
         stats.bytes_in += msg.0.len() as u64;
@@ -295,7 +298,9 @@ fn send_requests(
     cursor: Res<LocalCursor>,
     time: Res<Time<Real>>,
     mut cursor_sent: Local<(f64, LocalCursor)>,
+    clock: Res<MainThreadClock>,
 ) {
+    let _time = clock.measure();
     for (net, mut f) in &mut volumes {
         if !f.asked {
             let have = f.session.map(|s| (s, f.replica.applied()));

@@ -12,6 +12,7 @@ use super::{
 use crate::messages::{ApplyEdit, EditApplied, RedoEdit, UndoEdit};
 use crate::persist::file::{self, SaveData};
 use crate::state::VolumeState;
+use crate::stats::MainThreadClock;
 use crate::KdContourStep;
 use bevy::prelude::*;
 use bevy_replicon::prelude::*;
@@ -165,7 +166,9 @@ fn receive_requests(
     clients: Query<Entity, With<ConnectedClient>>,
     mut allowances: Local<HashMap<Entity, Allowance>>,
     mut cursors: ResMut<ClientCursors>,
+    clock: Res<MainThreadClock>,
 ) {
+    let _time = clock.measure();
     allowances.retain(|c, _| clients.contains(*c));
     cursors.0.retain(|c, _| clients.contains(*c));
     let session = session.map_or(0, |s| s.0);
@@ -365,7 +368,9 @@ fn send_applied(
     mut stats: ResMut<NetStats>,
     clients: Query<Entity, With<ConnectedClient>>,
     mut volumes: Query<(&NetVolume, &mut Authority)>,
+    clock: Res<MainThreadClock>,
 ) {
+    let _time = clock.measure();
     let mut fresh: BTreeMap<Entity, Vec<(u64, EditOp)>> = BTreeMap::new();
     for msg in applied.read() {
         let Ok((net, mut auth)) = volumes.get_mut(msg.volume) else {
@@ -417,7 +422,9 @@ fn share_cursors(
     mut peers: ResMut<PeerCursors>,
     volumes: Query<(Entity, &NetVolume, &Authority)>,
     clients: Query<Entity, With<ConnectedClient>>,
+    clock: Res<MainThreadClock>,
 ) {
+    let _time = clock.measure();
     let now = time.elapsed_secs_f64();
     if now < *next {
         return;
