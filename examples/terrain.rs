@@ -473,7 +473,7 @@ fn scripted_edits(
         return;
     }
     // A joining player edits once the host's terrain has arrived.
-    if followers.get(sculpt.volume).is_ok_and(|f| !f.joined()) {
+    if seed.joins && !followers.get(sculpt.volume).is_ok_and(Follower::joined) {
         return;
     }
     let (Ok((camera, tf)), Ok(state)) = (cameras.single(), volumes.get(sculpt.volume)) else {

@@ -203,7 +203,7 @@ pub struct RequestRefused {
     /// The client's entity (replicon's `ConnectedClient`).
     pub client: Entity,
     /// What kind of refusal: `malformed`, `too_large`, `rate`,
-    /// `unknown_volume`, `other_field`, `bad_brush`, `not_joined`.
+    /// `unknown_volume`, `other_field`, `bad_brush`, `not_joined`, `repeated`.
     pub kind: &'static str,
     /// The reason sent to the client.
     pub reason: String,

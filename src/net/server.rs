@@ -67,6 +67,39 @@ impl Authority {
 #[derive(Resource, Clone, Copy, Debug)]
 struct Session(u64);
 
+/// The most ops one resend request gets back.
+const MAX_RESEND: u64 = 1024;
+
+/// Takes one request from `client`'s allowance, which refills at the set rate
+/// up to the burst; false when it is spent.
+fn allow(
+    allowances: &mut HashMap<Entity, Allowance>,
+    client: Entity,
+    now: f64,
+    settings: &NetSettings,
+) -> bool {
+    let (rate, burst) = (settings.edits_per_second, settings.edit_burst.max(1.0));
+    let a = allowances.entry(client).or_insert(Allowance {
+        tokens: burst,
+        at: now,
+    });
+    a.tokens = (a.tokens + (now - a.at) as f32 * rate).min(burst);
+    a.at = now;
+    let allowed = a.tokens >= 1.0;
+    if allowed {
+        a.tokens -= 1.0;
+    }
+    allowed
+}
+
+fn rate_reason(settings: &NetSettings) -> String {
+    format!(
+        "too many edits: this server takes {} a second from each player (bursts of {})",
+        settings.edits_per_second,
+        settings.edit_burst.max(1.0)
+    )
+}
+
 /// Where each client's brush aims: (volume net id, centre, radius).
 #[derive(Resource, Default)]
 struct ClientCursors(HashMap<Entity, (u64, Vec3, f32)>);
@@ -110,10 +143,14 @@ struct Outbox<'a, 'o, 'r> {
 
 impl Outbox<'_, '_, '_> {
     fn send(&mut self, client: Entity, reply: &Reply) {
+        self.send_bytes(client, protocol::encode(reply));
+    }
+
+    /// Sends an encoded reply (encode once, send to many).
+    fn send_bytes(&mut self, client: Entity, bytes: Vec<u8>) {
         if !self.connected.contains(&client) {
             return;
         }
-        let bytes = protocol::encode(reply);
         self.stats.bytes_out += bytes.len() as u64;
         self.out.write(ToClients {
             targets: SendTargets::Single(ClientId::Client(client)),
@@ -221,7 +258,13 @@ fn receive_requests(
                     outbox.refuse(client, id, "other_field", reason);
                     continue;
                 }
-                auth.joined.insert(client);
+                if !auth.joined.insert(client) {
+                    let reason = format!(
+                        "volume {id} is already joined on this connection (a client joins once, and again after reconnecting)"
+                    );
+                    outbox.refuse(client, id, "repeated", reason);
+                    continue;
+                }
                 let last = auth.sequencer.last();
                 // A client that rejoins this session gets only what it missed,
                 // while the server still keeps it.
@@ -269,7 +312,15 @@ fn receive_requests(
                     outbox.refuse(client, id, "not_joined", reason);
                     continue;
                 }
-                match auth.sequencer.ops(from..to) {
+                // A resend costs like an edit, and sends at most MAX_RESEND ops.
+                if !allow(&mut allowances, client, now, &settings) {
+                    outbox.refuse(client, id, "rate", rate_reason(&settings));
+                    continue;
+                }
+                match auth
+                    .sequencer
+                    .ops(from..to.min(from.saturating_add(MAX_RESEND)))
+                {
                     Some(ops) => outbox.send(client, &Reply::Ops { volume: id, ops }),
                     None => {
                         let (through, save) = snapshot(&auth, net, state);
@@ -317,23 +368,8 @@ fn receive_requests(
                         Ok(_) => {}
                     }
                 }
-                // The client's allowance refills at the set rate, up to the burst.
-                let (rate, burst) = (settings.edits_per_second, settings.edit_burst.max(1.0));
-                let a = allowances.entry(client).or_insert(Allowance {
-                    tokens: burst,
-                    at: now,
-                });
-                a.tokens = (a.tokens + (now - a.at) as f32 * rate).min(burst);
-                a.at = now;
-                let allowed = a.tokens >= 1.0;
-                if allowed {
-                    a.tokens -= 1.0;
-                }
-                if !allowed {
-                    let reason = format!(
-                        "too many edits: this server takes {rate} a second from each player (bursts of {burst})"
-                    );
-                    outbox.refuse(client, id, "rate", reason);
+                if !allow(&mut allowances, client, now, &settings) {
+                    outbox.refuse(client, id, "rate", rate_reason(&settings));
                     continue;
                 }
                 outbox.stats.accepted += 1;
@@ -398,12 +434,12 @@ fn send_applied(
             continue;
         };
         auth.joined.retain(|c| clients.contains(*c));
-        let reply = Reply::Ops {
+        let bytes = protocol::encode(&Reply::Ops {
             volume: net.id,
             ops,
-        };
+        });
         for &client in &auth.joined {
-            outbox.send(client, &reply);
+            outbox.send_bytes(client, bytes.clone());
         }
     }
 }

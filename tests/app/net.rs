@@ -442,6 +442,11 @@ fn bad_clients_are_refused_with_a_reason_and_change_nothing() {
         vec![0xff, 0x00, 0x13, 0x37],
         edit(sphere(Vec3::splat(8.0), 1.0))[..5].to_vec(),
         vec![0x80; 5000],
+        protocol::encode(&Request::Join {
+            volume: 1,
+            fingerprint: FINGERPRINT.into(),
+            have: None,
+        }),
     ];
     for r in raws {
         bad.world_mut().write_message(ClientWire(r));
@@ -470,7 +475,8 @@ fn bad_clients_are_refused_with_a_reason_and_change_nothing() {
     assert_eq!(count("malformed"), 2, "garbage and a cut request");
     assert_eq!(count("other_field"), 1);
     assert_eq!(count("rate"), 30, "40 dabs past a burst of 10");
-    assert_eq!(refusals(&bad).len(), 38, "each refusal is answered");
+    assert_eq!(count("repeated"), 1, "a second join on one connection");
+    assert_eq!(refusals(&bad).len(), 39, "each refusal is answered");
     for r in refusals(&bad) {
         eprintln!("  {r}");
     }
