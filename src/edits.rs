@@ -54,6 +54,27 @@ pub(crate) fn apply_op(
     Ok(rebuilt)
 }
 
+/// The frame's [`ApplyEdit`], [`UndoEdit`] and [`RedoEdit`] messages as ops,
+/// per volume: the brushes in order, then the undos, then the redos (Bevy
+/// keeps no order across message types).
+pub(crate) fn read_ops<'a>(
+    edits: &'a mut MessageReader<ApplyEdit>,
+    undos: &'a mut MessageReader<UndoEdit>,
+    redos: &'a mut MessageReader<RedoEdit>,
+) -> impl Iterator<Item = (Entity, EditOp)> + 'a {
+    edits
+        .read()
+        .map(|e| {
+            let op = EditOp::Apply {
+                brush: e.brush.clone(),
+                continues_stroke: e.continues_stroke,
+            };
+            (e.volume, op)
+        })
+        .chain(undos.read().map(|m| (m.volume, EditOp::Undo)))
+        .chain(redos.read().map(|m| (m.volume, EditOp::Redo)))
+}
+
 /// Field swaps first (they put the edit log on the new field), then brushes in
 /// order, then undos, then redos.
 #[allow(clippy::too_many_arguments)]
@@ -95,18 +116,7 @@ pub(crate) fn apply_edits(
             op: None,
         });
     }
-    let ops = edits
-        .read()
-        .map(|e| {
-            let op = EditOp::Apply {
-                brush: e.brush.clone(),
-                continues_stroke: e.continues_stroke,
-            };
-            (e.volume, op)
-        })
-        .chain(undos.read().map(|m| (m.volume, EditOp::Undo)))
-        .chain(redos.read().map(|m| (m.volume, EditOp::Redo)));
-    for (volume, op) in ops {
+    for (volume, op) in read_ops(&mut edits, &mut undos, &mut redos) {
         let Ok((mut state, _, remote)) = volumes.get_mut(volume) else {
             warn!("ApplyEdit / UndoEdit / RedoEdit: {volume} is not a meshed volume");
             continue;

@@ -8,7 +8,7 @@ use super::{
     Cursor, LocalCursor, NetJoined, NetRefused, NetStats, NetVolume, NewShared, PeerCursors,
     CURSOR_PERIOD,
 };
-use crate::edits::{apply_op, RemoteEdits};
+use crate::edits::{apply_op, read_ops, RemoteEdits};
 use crate::messages::{ApplyEdit, EditApplied, RedoEdit, UndoEdit};
 use crate::persist::file;
 use crate::settings::KdContourSettings;
@@ -329,18 +329,7 @@ fn send_requests(
         }
         *cursor_sent = (now, cursor.clone());
     }
-    let ops = edits
-        .read()
-        .map(|e| {
-            let op = EditOp::Apply {
-                brush: e.brush.clone(),
-                continues_stroke: e.continues_stroke,
-            };
-            (e.volume, op)
-        })
-        .chain(undos.read().map(|m| (m.volume, EditOp::Undo)))
-        .chain(redos.read().map(|m| (m.volume, EditOp::Redo)));
-    for (volume, op) in ops {
+    for (volume, op) in read_ops(&mut edits, &mut undos, &mut redos) {
         let Ok((net, f)) = volumes.get(volume) else {
             continue; // not shared: applied locally
         };

@@ -146,6 +146,33 @@ impl Outbox<'_, '_, '_> {
         self.send_bytes(client, protocol::encode(reply));
     }
 
+    /// Sends `client` the volume's whole history, in the save format, as of
+    /// the last op.
+    fn send_history(
+        &mut self,
+        client: Entity,
+        auth: &Authority,
+        net: &NetVolume,
+        state: &VolumeState,
+        session: u64,
+    ) {
+        let snap = auth.sequencer.snapshot(state.history());
+        let save = file::encode(&SaveData {
+            fingerprint: net.fingerprint.clone(),
+            edits: snap.log,
+            undo: snap.steps,
+        });
+        self.stats.snapshots += 1;
+        self.stats.snapshot_bytes += save.len() as u64;
+        let joined = Reply::Joined {
+            volume: net.id,
+            session,
+            through: snap.through,
+            save: Some(save),
+        };
+        self.send(client, &joined);
+    }
+
     /// Sends an encoded reply (encode once, send to many).
     fn send_bytes(&mut self, client: Entity, bytes: Vec<u8>) {
         if !self.connected.contains(&client) {
@@ -174,17 +201,6 @@ impl Outbox<'_, '_, '_> {
             reason,
         });
     }
-}
-
-/// The whole history of `state` for a client, in the save format.
-fn snapshot(auth: &Authority, net: &NetVolume, state: &VolumeState) -> (u64, Vec<u8>) {
-    let snap = auth.sequencer.snapshot(state.history());
-    let data = SaveData {
-        fingerprint: net.fingerprint.clone(),
-        edits: snap.log,
-        undo: snap.steps,
-    };
-    (snap.through, file::encode(&data))
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -285,16 +301,7 @@ fn receive_requests(
                         }
                     }
                     None => {
-                        let (through, save) = snapshot(&auth, net, state);
-                        outbox.stats.snapshots += 1;
-                        outbox.stats.snapshot_bytes += save.len() as u64;
-                        let joined = Reply::Joined {
-                            volume: id,
-                            session,
-                            through,
-                            save: Some(save),
-                        };
-                        outbox.send(client, &joined);
+                        outbox.send_history(client, &auth, net, state, session);
                     }
                 }
             }
@@ -323,16 +330,7 @@ fn receive_requests(
                 {
                     Some(ops) => outbox.send(client, &Reply::Ops { volume: id, ops }),
                     None => {
-                        let (through, save) = snapshot(&auth, net, state);
-                        outbox.stats.snapshots += 1;
-                        outbox.stats.snapshot_bytes += save.len() as u64;
-                        let joined = Reply::Joined {
-                            volume: id,
-                            session,
-                            through,
-                            save: Some(save),
-                        };
-                        outbox.send(client, &joined);
+                        outbox.send_history(client, &auth, net, state, session);
                     }
                 }
             }

@@ -221,6 +221,31 @@ fn schedule_tasks(
     }
 }
 
+/// A chunk's build or extraction failed: logged, shown on its `KdChunk`, and
+/// reported as [`ChunkFailed`].
+fn report_failure(
+    volume: Entity,
+    c: ChunkKey,
+    chunk: Option<Entity>,
+    error: String,
+    chunks: &mut Query<&mut KdChunk>,
+    failed: &mut MessageWriter<ChunkFailed>,
+) {
+    error!(
+        "chunk {} (level {}) of volume {volume}: {error}",
+        c.coord, c.level
+    );
+    if let Some(mut ch) = chunk.and_then(|e| chunks.get_mut(e).ok()) {
+        ch.status = ChunkStatus::Failed(error.clone());
+    }
+    failed.write(ChunkFailed {
+        volume,
+        coord: c.coord,
+        level: c.level,
+        error,
+    });
+}
+
 fn poll_tasks(
     clock: Res<MainThreadClock>,
     mut stats: ResMut<KdContourStats>,
@@ -249,22 +274,9 @@ fn poll_tasks(
             match result {
                 Ok(built) => state.world_mut().insert_built(&job, built),
                 Err(error) => {
-                    error!(
-                        "chunk {} (level {}) of volume {entity}: {error}",
-                        c.coord, c.level
-                    );
                     state.world_mut().remove_tree(&c);
-                    if let Some(mut ch) =
-                        state.chunk_entity(&c).and_then(|e| chunks.get_mut(e).ok())
-                    {
-                        ch.status = ChunkStatus::Failed(error.clone());
-                    }
-                    failed.write(ChunkFailed {
-                        volume: entity,
-                        coord: c.coord,
-                        level: c.level,
-                        error,
-                    });
+                    let chunk = state.chunk_entity(&c);
+                    report_failure(entity, c, chunk, error, &mut chunks, &mut failed);
                 }
             }
             state.mark_extract(&c);
@@ -280,19 +292,8 @@ fn poll_tasks(
                     Ok(mesh) => slot.work.ready = Some(mesh),
                     // The chunk keeps the mesh it shows.
                     Err(error) => {
-                        error!(
-                            "chunk {} (level {}) of volume {entity}: {error}",
-                            c.coord, c.level
-                        );
-                        if let Ok(mut ch) = chunks.get_mut(slot.entity()) {
-                            ch.status = ChunkStatus::Failed(error.clone());
-                        }
-                        failed.write(ChunkFailed {
-                            volume: entity,
-                            coord: c.coord,
-                            level: c.level,
-                            error,
-                        });
+                        let chunk = Some(slot.entity());
+                        report_failure(entity, *c, chunk, error, &mut chunks, &mut failed);
                     }
                 }
             }
