@@ -48,6 +48,7 @@
 //! | `persist` | [`PersistPlugin`] | saves and loads the edits of [`KdSave`] volumes |
 //! | `debug` (feature `debug`) | `DebugPlugin` | colours chunks by LOD band |
 //! | `colliders` (feature `avian`) | `CollidersPlugin` | avian3d trimesh colliders near the camera and `ColliderAnchor`s, built in the meshing tasks |
+//! | `navmesh` (feature `navmesh`) | `NavmeshPlugin` | navmesh tiles near the camera and `NavAnchor`s, built in the meshing tasks, linked across seams and levels; path queries |
 //! | `net` (feature `replicon`) | `NetPlugin` (added by the app, not in the group) | multiplayer: a server's accepted edits reach every client |
 //!
 //! [`material`] holds [`TerrainMaterial`] (its plugin, [`TerrainMaterialPlugin`],
@@ -85,6 +86,8 @@ pub use bevy_replicon;
 #[cfg(feature = "replicon")]
 pub use bevy_replicon_renet;
 pub use kdcontour;
+#[cfg(feature = "navmesh")]
+pub use kdcontour_nav;
 
 #[cfg(feature = "avian")]
 pub mod colliders;
@@ -97,6 +100,8 @@ mod lod;
 pub mod material;
 mod mesh;
 mod messages;
+#[cfg(feature = "navmesh")]
+pub mod navmesh;
 #[cfg(feature = "replicon")]
 pub mod net;
 #[cfg(feature = "egui")]
@@ -125,6 +130,8 @@ pub use messages::{
     ApplyEdit, ChunkFailed, ChunkMeshed, EditApplied, LodChanged, MessagesPlugin, RedoEdit,
     ReplaceField, UndoEdit,
 };
+#[cfg(feature = "navmesh")]
+pub use navmesh::{NavAnchor, NavStats, NavmeshPlugin, NavmeshSettings, VolumeNavMesh};
 pub use persist::{EditsLoaded, EditsSaved, KdSave, PersistFailed, PersistPlugin};
 pub use plugins::{KdContourPlugin, KdContourPlugins};
 pub use settings::{KdContourSettings, LodSettings, SettingsPlugin};
@@ -192,7 +199,7 @@ pub enum KdContourStep {
     /// (the `net` subsystem).
     SendEdits,
     /// In [`KdContourSystems::Lod`]: the chunks to load, drop or give colliders
-    /// are chosen.
+    /// and navmesh tiles are chosen.
     ChooseChunks,
     /// In [`KdContourSystems::Lod`]: thresholds from the camera.
     Thresholds,

@@ -62,7 +62,7 @@ pub(crate) fn update_lod(
                     Some(p) => curve.threshold(state.distance(p, c) / (1u32 << c.level) as f32),
                     None => settings.default_threshold,
                 };
-                if let Some(cap) = state.collider_cap(slot) {
+                if let Some(cap) = state.extra_cap(slot) {
                     want = want.min(cap);
                 }
                 let have = state.world().threshold(c);

@@ -1,6 +1,6 @@
 //! Chunk meshes as Bevy shows them: a core mesh converted ([`to_bevy_mesh`]), a
 //! chunk's finished extraction waiting for upload ([`ReadyMesh`]), and what a
-//! subsystem adds to it ([`MeshExtra`]: the colliders).
+//! subsystem adds to it ([`MeshExtra`]: colliders, navmesh tiles).
 
 use bevy::asset::RenderAssetUsages;
 use bevy::ecs::system::EntityCommands;
@@ -9,14 +9,28 @@ use bevy::prelude::*;
 use kdcontour::IndexedMesh;
 use std::sync::Arc;
 
-/// What a subsystem adds to a chunk's mesh (the colliders): built from the
-/// welded mesh in the chunk's extraction task, put on the chunk entity in the
-/// frame its mesh is shown, so the two never disagree.
+/// What a subsystem adds to a chunk's mesh (a collider, a navmesh tile): built
+/// from the welded mesh in the chunk's extraction task, put on the chunk entity
+/// in the frame its mesh is shown, so the two never disagree.
 pub(crate) trait MeshExtra: Send + Sync + 'static {
     /// Builds it from `mesh`, or, with `None`, what takes an old one away (the
     /// chunk should have none now).
     fn build(&self, mesh: Option<&IndexedMesh>) -> ExtraPayload;
 }
+
+/// Which subsystem's extra (an index into a chunk's extras).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum ExtraKind {
+    /// A trimesh collider (feature `avian`).
+    #[cfg_attr(not(feature = "avian"), allow(dead_code))]
+    Collider = 0,
+    /// A navmesh tile (feature `navmesh`).
+    #[cfg_attr(not(feature = "navmesh"), allow(dead_code))]
+    NavTile = 1,
+}
+
+/// How many kinds of extra there are.
+pub(crate) const EXTRA_KINDS: usize = 2;
 
 /// A built extra: puts itself on the chunk entity.
 pub(crate) type ExtraPayload = Box<dyn FnOnce(&mut EntityCommands) + Send + Sync>;
@@ -40,8 +54,9 @@ pub(crate) struct ReadyMesh {
     pub triangles: usize,
     /// The Bevy mesh; `None` when the chunk has no surface.
     pub mesh: Option<Mesh>,
-    /// What a subsystem adds to it (a collider of the same triangles), if any.
-    pub extra: Option<ExtraPayload>,
+    /// What the subsystems add to it (a collider of the same triangles, a
+    /// navmesh tile of its floor).
+    pub extra: Vec<ExtraPayload>,
 }
 
 impl ReadyMesh {
@@ -51,7 +66,7 @@ impl ReadyMesh {
             threshold,
             triangles: mesh.triangle_count(),
             mesh: (!mesh.is_empty()).then(|| to_bevy_mesh(mesh)),
-            extra: None,
+            extra: Vec::new(),
         }
     }
 }

@@ -17,7 +17,7 @@ use bevy::prelude::*;
 
 /// Chunked, LOD-driven meshing of [`crate::KdVolume`]s: settings, volumes and
 /// chunks, messages, edits, streaming, LOD, tasks, upload, stats, saving, and (crate
-/// feature `debug`) LOD colouring.
+/// features `debug`, `avian`, `navmesh`) LOD colouring, colliders, navmesh tiles.
 #[derive(Default)]
 pub struct KdContourPlugins {
     /// Initial settings (copied into the [`KdContourSettings`] resource).
@@ -39,7 +39,7 @@ impl PluginGroup for KdContourPlugins {
             .add(TasksPlugin)
             .add(UploadPlugin)
             .add(PersistPlugin);
-        with_colliders(with_debug(group))
+        with_navmesh(with_colliders(with_debug(group)))
     }
 }
 
@@ -52,6 +52,18 @@ fn with_colliders(group: PluginGroupBuilder) -> PluginGroupBuilder {
 /// Without the `avian` feature there are no colliders.
 #[cfg(not(feature = "avian"))]
 fn with_colliders(group: PluginGroupBuilder) -> PluginGroupBuilder {
+    group
+}
+
+/// Adds the navmesh subsystem (crate feature `navmesh`).
+#[cfg(feature = "navmesh")]
+fn with_navmesh(group: PluginGroupBuilder) -> PluginGroupBuilder {
+    group.add(crate::navmesh::NavmeshPlugin)
+}
+
+/// Without the `navmesh` feature there are no navmesh tiles.
+#[cfg(not(feature = "navmesh"))]
+fn with_navmesh(group: PluginGroupBuilder) -> PluginGroupBuilder {
     group
 }
 

@@ -5,7 +5,7 @@
 //! [`ChunkKey`] (level 0 in a one-level world).
 
 use crate::horizon::layout::{HorizonKeep, HorizonState};
-use crate::mesh::{ChunkExtra, MeshExtra};
+use crate::mesh::{ChunkExtra, ExtraKind, MeshExtra, EXTRA_KINDS};
 use crate::tasks::work::ChunkWork;
 use crate::volume::{ChunkStatus, KdChunk};
 use bevy::prelude::*;
@@ -24,13 +24,12 @@ pub(crate) struct ChunkSlot {
     /// Its mesh waits for the rest of a level change, to be shown in the same
     /// frame as the chunks it replaces are dropped (see `horizon`).
     held: bool,
-    /// The chunk is near the camera or a collider anchor: its meshes carry a
-    /// collider (feature `avian`).
-    collider: bool,
-    /// Whether the collider subsystem found this frame that it should carry one
-    /// (its scratch mark while it reconciles `collider`).
-    #[cfg_attr(not(feature = "avian"), allow(dead_code))] // set by the collider subsystem only
-    wants_collider: bool,
+    /// Which extras its meshes carry (by [`ExtraKind`]): a collider or a
+    /// navmesh tile, for a chunk near the camera or an anchor.
+    carries: [bool; EXTRA_KINDS],
+    /// Which extras a subsystem found this frame it should carry (its scratch
+    /// mark while it reconciles `carries`).
+    wants: [bool; EXTRA_KINDS],
     /// It has shown a mesh (or its lack of surface) at least once.
     shown: bool,
 }
@@ -71,33 +70,6 @@ impl ChunkSlot {
         self.shown = true;
         Some(ready)
     }
-
-    /// Whether its meshes carry a collider.
-    #[cfg_attr(not(feature = "avian"), allow(dead_code))] // set by the collider subsystem only
-    pub(crate) fn collider(&self) -> bool {
-        self.collider
-    }
-
-    /// Whether the collider subsystem wants it to carry one this frame.
-    #[cfg_attr(not(feature = "avian"), allow(dead_code))] // set by the collider subsystem only
-    pub(crate) fn wants_collider(&self) -> bool {
-        self.wants_collider
-    }
-
-    /// Marks whether it should carry a collider (the collider subsystem's
-    /// scratch mark).
-    #[cfg_attr(not(feature = "avian"), allow(dead_code))] // set by the collider subsystem only
-    pub(crate) fn wish_collider(&mut self, wanted: bool) {
-        self.wants_collider = wanted;
-    }
-
-    /// Turns its collider on or off; its mesh is extracted again with or
-    /// without one.
-    #[cfg_attr(not(feature = "avian"), allow(dead_code))] // set by the collider subsystem only
-    pub(crate) fn flip_collider(&mut self) {
-        self.collider = !self.collider;
-        self.work.request_extract();
-    }
 }
 
 /// Tasks running and waiting, for [`crate::KdContourStats`].
@@ -127,9 +99,10 @@ pub struct VolumeState {
     stream_key: Option<(IVec3, u64, i32, i32)>,
     /// A horizon volume's level changes and layouts (the horizon subsystem's).
     pub(crate) horizon: HorizonState,
-    /// What chunks that carry a collider add to their meshes (set by the
-    /// collider subsystem; `None` without it).
-    extra: Option<ChunkExtra>,
+    /// What chunks near the camera or an anchor add to their meshes, by
+    /// [`ExtraKind`] (set by the collider and navmesh subsystems; `None`
+    /// without them).
+    extras: [Option<ChunkExtra>; EXTRA_KINDS],
 }
 
 impl VolumeState {
@@ -144,7 +117,7 @@ impl VolumeState {
             focus: Vec3::ZERO,
             stream_key: None,
             horizon: HorizonState::default(),
-            extra: None,
+            extras: Default::default(),
         }
     }
 
@@ -275,32 +248,103 @@ impl VolumeState {
         }
     }
 
-    /// The threshold a chunk (its slot) may not be cut coarser than because it carries a
-    /// collider (feature `avian`), if any.
-    pub(crate) fn collider_cap(&self, slot: &ChunkSlot) -> Option<f32> {
-        if slot.collider {
-            return self.extra.as_ref().and_then(|e| e.on);
+    /// The threshold a chunk (its slot) may not be cut coarser than because it
+    /// carries an extra (a collider or a navmesh tile), if any: the finest of
+    /// theirs.
+    pub(crate) fn extra_cap(&self, slot: &ChunkSlot) -> Option<f32> {
+        self.extras
+            .iter()
+            .zip(slot.carries)
+            .filter(|(_, on)| *on)
+            .filter_map(|(e, _)| e.as_ref().and_then(|e| e.on))
+            .reduce(f32::min)
+    }
+
+    /// Whether the extra `kind` is set.
+    #[cfg_attr(not(any(feature = "avian", feature = "navmesh")), allow(dead_code))]
+    pub(crate) fn has_extra(&self, kind: ExtraKind) -> bool {
+        self.extras[kind as usize].is_some()
+    }
+
+    /// Sets what chunks that carry the extra `kind` add to their meshes.
+    #[cfg_attr(not(any(feature = "avian", feature = "navmesh")), allow(dead_code))]
+    pub(crate) fn set_extra(&mut self, kind: ExtraKind, extra: Option<ChunkExtra>) {
+        self.extras[kind as usize] = extra;
+    }
+
+    /// For a new extraction of `slot`: each extra's builder and whether the
+    /// chunk carries it now.
+    pub(crate) fn extras_for(&self, slot: &ChunkSlot) -> Vec<(Arc<dyn MeshExtra>, bool)> {
+        self.extras
+            .iter()
+            .zip(slot.carries)
+            .filter_map(|(e, on)| {
+                let e = e.as_ref()?;
+                Some((e.builder.clone(), e.on.is_some() && on))
+            })
+            .collect()
+    }
+
+    /// Marks the chunks that should carry the extra `kind` (while `enabled`):
+    /// those within `distance` of any of `points` (volume-local), and the
+    /// owners of seams touching them, so the surface there is whole. A chunk
+    /// whose mark changed is extracted again, with or without it; a chunk held
+    /// for a level change keeps what it has until the change ends.
+    #[cfg_attr(not(any(feature = "avian", feature = "navmesh")), allow(dead_code))]
+    pub(crate) fn want_near(
+        &mut self,
+        kind: ExtraKind,
+        enabled: bool,
+        distance: f32,
+        points: &[Vec3],
+    ) {
+        let i = kind as usize;
+        // Marks on the slots rather than a set of keys: the near chunks' seam
+        // owners are looked up once each, and nothing is hashed twice.
+        for slot in self.slots.values_mut() {
+            slot.wants[i] = false;
         }
-        None
+        if enabled {
+            let near: Vec<ChunkKey> = self
+                .slots
+                .keys()
+                .filter(|k| points.iter().any(|p| self.distance(*p, k) <= distance))
+                .copied()
+                .collect();
+            for k in near {
+                for o in self.world.seam_owners_touching(&k) {
+                    if let Some(slot) = self.slots.get_mut(&o) {
+                        slot.wants[i] = true;
+                    }
+                }
+            }
+        }
+        let mut changed: Vec<ChunkKey> = self
+            .slots
+            .iter()
+            .filter(|(_, s)| s.carries[i] != s.wants[i])
+            .map(|(k, _)| *k)
+            .collect();
+        changed.sort_by_key(|k| k.order());
+        for k in changed {
+            if self.shows_held(&k) {
+                continue;
+            }
+            let slot = self.slots.get_mut(&k).expect("listed");
+            slot.carries[i] = !slot.carries[i];
+            slot.work.request_extract();
+        }
     }
 
-    /// Whether an extra is set.
-    #[cfg_attr(not(feature = "avian"), allow(dead_code))] // set by the collider subsystem only
-    pub(crate) fn has_extra(&self) -> bool {
-        self.extra.is_some()
-    }
-
-    /// Sets what chunks that carry a collider add to their meshes.
-    #[cfg_attr(not(feature = "avian"), allow(dead_code))] // set by the collider subsystem only
-    pub(crate) fn set_extra(&mut self, extra: Option<ChunkExtra>) {
-        self.extra = extra;
-    }
-
-    /// For a new extraction of `slot`: the extra's builder and whether the
-    /// chunk carries it now (`None` when there is no extra).
-    pub(crate) fn extra_for(&self, slot: &ChunkSlot) -> Option<(Arc<dyn MeshExtra>, bool)> {
-        let e = self.extra.as_ref()?;
-        Some((e.builder.clone(), e.on.is_some() && slot.collider))
+    /// Extracts again every chunk that carries the extra `kind` (its builder
+    /// changed).
+    #[cfg_attr(not(feature = "navmesh"), allow(dead_code))]
+    pub(crate) fn refresh_extra(&mut self, kind: ExtraKind) {
+        for slot in self.slots.values_mut() {
+            if slot.carries[kind as usize] {
+                slot.work.request_extract();
+            }
+        }
     }
 
     /// Whether a chunk whose mesh shows part of `c` is held for a level change.
@@ -366,8 +410,8 @@ impl VolumeState {
                 work: ChunkWork::default(),
                 held: false,
                 shown: false,
-                collider: false,
-                wants_collider: false,
+                carries: [false; EXTRA_KINDS],
+                wants: [false; EXTRA_KINDS],
             },
         );
         self.mark_build(&c);

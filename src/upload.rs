@@ -99,7 +99,7 @@ impl Upload<'_, '_, '_, '_, '_, '_> {
         let failed = matches!(info.status, ChunkStatus::Failed(_));
         info.threshold = ready.threshold;
         info.triangles = ready.triangles;
-        if let Some(put) = ready.extra {
+        for put in ready.extra {
             put(&mut self.commands.entity(chunk));
         }
         match ready.mesh {

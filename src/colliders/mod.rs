@@ -17,7 +17,7 @@
 //!
 //! Add avian's `PhysicsPlugins` yourself (the plugin does not step physics).
 
-use crate::mesh::{ChunkExtra, ExtraPayload, MeshExtra};
+use crate::mesh::{ChunkExtra, ExtraKind, ExtraPayload, MeshExtra};
 use crate::state::VolumeState;
 use crate::stats::MainThreadClock;
 use crate::volume::{to_volume, KdChunk, LodCamera};
@@ -25,7 +25,6 @@ use crate::{KdContourStep, KdContourSystems};
 use avian3d::prelude::{Collider, CollisionLayers, RigidBody};
 use bevy::ecs::system::EntityCommands;
 use bevy::prelude::*;
-use kdcontour::world::ChunkKey;
 use kdcontour::IndexedMesh;
 use std::sync::Arc;
 
@@ -142,56 +141,24 @@ fn want_colliders(
     for (vol_tf, mut state) in &mut volumes {
         let state = &mut *state;
         // Set when the settings change or the volume is new, not every frame.
-        if settings.is_changed() || !state.has_extra() {
-            state.set_extra(Some(ChunkExtra {
-                builder: Arc::new(ColliderExtra {
-                    layers: settings.layers,
+        if settings.is_changed() || !state.has_extra(ExtraKind::Collider) {
+            state.set_extra(
+                ExtraKind::Collider,
+                Some(ChunkExtra {
+                    builder: Arc::new(ColliderExtra {
+                        layers: settings.layers,
+                    }),
+                    on: settings.enabled.then_some(settings.threshold),
                 }),
-                on: settings.enabled.then_some(settings.threshold),
-            }));
+            );
         }
         let to_local = to_volume(vol_tf);
         let points: Vec<Vec3> = anchors.iter().map(|a| to_local(a.translation())).collect();
-        // Marks on the slots rather than a set of keys: the near chunks' seam
-        // owners are looked up once each, and nothing is hashed twice.
-        for slot in state.slots.values_mut() {
-            slot.wish_collider(false);
-        }
-        if settings.enabled {
-            let near: Vec<ChunkKey> = state
-                .slots
-                .keys()
-                .filter(|k| {
-                    points
-                        .iter()
-                        .any(|p| state.distance(*p, k) <= settings.distance)
-                })
-                .copied()
-                .collect();
-            // A chunk's seam owners (itself among them) show part of its
-            // surface, so they carry colliders with it.
-            for k in near {
-                for o in state.world.seam_owners_touching(&k) {
-                    if let Some(slot) = state.slots.get_mut(&o) {
-                        slot.wish_collider(true);
-                    }
-                }
-            }
-        }
-        let mut changed: Vec<ChunkKey> = state
-            .slots
-            .iter()
-            .filter(|(_, s)| s.collider() != s.wants_collider())
-            .map(|(k, _)| *k)
-            .collect();
-        changed.sort_by_key(|k| k.order());
-        for k in changed {
-            // A chunk held for a level change keeps what it has until the end.
-            if state.shows_held(&k) {
-                continue;
-            }
-            let slot = state.slots.get_mut(&k).expect("listed");
-            slot.flip_collider();
-        }
+        state.want_near(
+            ExtraKind::Collider,
+            settings.enabled,
+            settings.distance,
+            &points,
+        );
     }
 }

@@ -100,7 +100,7 @@ fn start(state: &mut VolumeState, workers: &ChunkWorkers, work: Work, c: ChunkKe
             // everywhere, and splitting there would draw whole faces in
             // one material (angular patches on distant hills).
             let cell = state.world().cell_size;
-            let extra = state.extra_for(&state.slots[&c]);
+            let extras = state.extras_for(&state.slots[&c]);
             let slot = state.slots.get_mut(&c).expect("listed");
             slot.work.need_extract = false;
             let Some(snapshot) = snapshot else {
@@ -119,10 +119,14 @@ fn start(state: &mut VolumeState, workers: &ChunkWorkers, work: Work, c: ChunkKe
                     // Vertex materials come from the tree, when the volume's
                     // world carries them (a terrain material).
                     snapshot.extract(&mut mesh);
-                    // The extra (a collider) takes the welded mesh; the drawn one
-                    // has its vertices split along hard material borders, so a
-                    // border is drawn along the crease, not as a sawtooth across it.
-                    let extra = extra.map(|(b, wanted)| b.build(wanted.then_some(&mesh)));
+                    // The extras (a collider, a navmesh tile) take the welded
+                    // mesh; the drawn one has its vertices split along hard
+                    // material borders, so a border is drawn along the crease,
+                    // not as a sawtooth across it.
+                    let extra = extras
+                        .into_iter()
+                        .map(|(b, wanted)| b.build(wanted.then_some(&mesh)))
+                        .collect();
                     kdcontour::material::split_borders(&mut mesh, &field, cell);
                     let mut ready = ReadyMesh::new(threshold, &mesh);
                     ready.extra = extra;

@@ -5,6 +5,7 @@ mod colliders;
 mod common;
 mod horizon;
 mod materials;
+mod navmesh;
 mod net;
 mod persist;
 mod rolling;

@@ -1,0 +1,362 @@
+//! Navmesh (crate feature `navmesh`): [`NavmeshPlugin`] gives every chunk within
+//! [`NavmeshSettings::distance`] of the [`LodCamera`] or of any [`NavAnchor`] a
+//! navmesh tile of the floor its mesh shows, and keeps each volume's tiles,
+//! linked across chunk seams and level boundaries, in a [`VolumeNavMesh`] to
+//! ask for paths.
+//!
+//! - **Built in the meshing task.** The extraction that makes a chunk's mesh
+//!   also builds its tile ([`kdcontour_nav::NavTile::build`]: Recast's steps
+//!   through rerecast) from the same buffers, on the chunk workers; the main
+//!   thread only links it in ([`NavStats::built_on_main_thread`] counts any
+//!   that were not, and stays 0).
+//! - **Never stale.** Mesh and tile travel together and land in the same frame;
+//!   an edit's re-extraction replaces both, so only the tiles of the chunks an
+//!   edit re-meshes are rebuilt ([`NavStats::tiles_built`]).
+//! - **Where they are needed.** Chunks near the camera or an anchor (and the
+//!   chunks that own seams touching them) carry a tile, cut at no coarser than
+//!   [`NavmeshSettings::threshold`]; a chunk that leaves the distance is
+//!   extracted again without one, and a dropped chunk's tile goes with it.
+//! - **Paths.** [`VolumeNavMesh::find_path`] (volume-local) and
+//!   [`VolumeNavMesh::find_path_world`]: A* over the linked polygons and the
+//!   funnel, or a [`PathError`] that says why there is none (a goal in rock or
+//!   in the air, floors that do not connect).
+//!
+//! Changing [`NavmeshSettings`] (the agent's radius, height, slope, climb)
+//! rebuilds every tile with the new agent.
+
+use crate::mesh::{ChunkExtra, ExtraKind, ExtraPayload, MeshExtra};
+use crate::state::VolumeState;
+use crate::stats::MainThreadClock;
+use crate::volume::{to_volume, KdChunk, LodCamera};
+use crate::KdContourStep;
+use bevy::ecs::system::EntityCommands;
+use bevy::prelude::*;
+use kdcontour::world::ChunkKey;
+use kdcontour::IndexedMesh;
+pub use kdcontour_nav::{NavMesh, NavSettings, NavTile, Path, PathError};
+use std::sync::Arc;
+use std::thread::ThreadId;
+use std::time::Instant;
+
+/// Navmesh tiles for chunks near the camera and anchors.
+pub struct NavmeshPlugin;
+
+impl Plugin for NavmeshPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<MainThreadClock>()
+            .init_resource::<NavmeshSettings>()
+            .init_resource::<NavStats>()
+            .register_type::<NavmeshSettings>()
+            .register_type::<NavAnchor>()
+            .register_type::<NavStats>()
+            .add_systems(
+                PostUpdate,
+                (
+                    want_tiles.in_set(KdContourStep::ChooseChunks),
+                    drop_stale_tiles.in_set(KdContourStep::AfterUpload),
+                ),
+            );
+    }
+}
+
+/// Where chunks get navmesh tiles, and the agent they are built for.
+#[derive(Resource, Clone, Debug, Reflect)]
+#[reflect(Resource)]
+pub struct NavmeshSettings {
+    /// Tiles at all.
+    pub enabled: bool,
+    /// Chunks within this distance (the volume's local units) of the
+    /// [`LodCamera`] or a [`NavAnchor`] get a tile.
+    pub distance: f32,
+    /// Chunks with a tile are cut at no coarser threshold than this (squared
+    /// cells of the chunk's level, as [`crate::LodSettings`]).
+    pub threshold: f32,
+    /// The agent's radius: paths keep this far from walls and ledges.
+    pub agent_radius: f32,
+    /// The agent's height: floors with less room above are left out.
+    pub agent_height: f32,
+    /// The steepest walkable slope, in degrees (0 to 89).
+    pub max_slope_degrees: f32,
+    /// The highest step the agent climbs.
+    pub max_climb: f32,
+    /// Recast's cell on the ground plane (smaller: closer to walls, slower).
+    pub cell_size: f32,
+}
+
+impl Default for NavmeshSettings {
+    fn default() -> Self {
+        let agent = NavSettings::default();
+        NavmeshSettings {
+            enabled: true,
+            distance: 48.0,
+            threshold: 0.02,
+            agent_radius: agent.agent_radius,
+            agent_height: agent.agent_height,
+            max_slope_degrees: agent.max_slope_degrees,
+            max_climb: agent.max_climb,
+            cell_size: agent.cell_size,
+        }
+    }
+}
+
+impl NavmeshSettings {
+    /// The agent as the navmesh crate takes it.
+    pub fn agent(&self) -> NavSettings {
+        NavSettings {
+            agent_radius: self.agent_radius,
+            agent_height: self.agent_height,
+            max_slope_degrees: self.max_slope_degrees,
+            max_climb: self.max_climb,
+            cell_size: self.cell_size,
+            ..NavSettings::default()
+        }
+    }
+}
+
+/// Chunks near this entity get navmesh tiles (the agents, their goals), as
+/// near the [`LodCamera`].
+#[derive(Component, Clone, Copy, Debug, Default, Reflect)]
+#[reflect(Component)]
+pub struct NavAnchor;
+
+/// What the navmesh subsystem did, summed since the app started.
+#[derive(Resource, Clone, Debug, Default, Reflect)]
+#[reflect(Resource)]
+pub struct NavStats {
+    /// Tiles built (in meshing tasks) and linked in.
+    pub tiles_built: u64,
+    /// Tiles taken out (a chunk without floor, out of reach or dropped).
+    pub tiles_removed: u64,
+    /// Tiles built on the thread that linked them in (the main thread): 0.
+    pub built_on_main_thread: u64,
+    /// Tile builds that failed (logged; the chunk has no tile).
+    pub failures: u64,
+    /// Milliseconds spent building tiles, in all (on the chunk workers).
+    pub build_ms: f64,
+    /// The slowest tile build, in milliseconds.
+    pub build_ms_max: f64,
+    /// Tiles held now, over all volumes.
+    pub tiles: usize,
+    /// Their polygons.
+    pub polygons: usize,
+    /// Links between tiles.
+    pub links: usize,
+    /// The last error (a tile that failed, settings out of range).
+    pub last_error: Option<String>,
+}
+
+/// A volume's navmesh: the tiles of its chunks, linked (added to every volume
+/// by [`NavmeshPlugin`]).
+#[derive(Component)]
+pub struct VolumeNavMesh {
+    navmesh: NavMesh,
+    /// The settings it was built for; a tile built for others is dropped.
+    generation: u64,
+}
+
+impl VolumeNavMesh {
+    /// The tiles and their links.
+    pub fn navmesh(&self) -> &NavMesh {
+        &self.navmesh
+    }
+
+    /// The path from `start` to `goal` (volume-local points, as the chunk
+    /// meshes), on the floor.
+    pub fn find_path(&self, start: Vec3, goal: Vec3) -> Result<Path, PathError> {
+        self.navmesh.find_path(start, goal)
+    }
+
+    /// The path from `start` to `goal` in world space, for a volume placed by
+    /// `volume`: its points in world space.
+    pub fn find_path_world(
+        &self,
+        volume: &GlobalTransform,
+        start: Vec3,
+        goal: Vec3,
+    ) -> Result<Vec<Vec3>, PathError> {
+        let local = to_volume(volume);
+        let path = self.navmesh.find_path(local(start), local(goal))?;
+        Ok(path
+            .points
+            .into_iter()
+            .map(|p| volume.transform_point(p))
+            .collect())
+    }
+}
+
+/// The navmesh subsystem's mesh extra: a chunk's tile, built in its extraction
+/// task, or the removal of an old one.
+struct TileExtra {
+    agent: NavSettings,
+    generation: u64,
+}
+
+/// A tile built in a task, or its lack, and where and how long.
+struct Built {
+    tile: Option<Result<NavTile, kdcontour_nav::NavError>>,
+    ms: f64,
+    thread: ThreadId,
+    generation: u64,
+}
+
+impl MeshExtra for TileExtra {
+    fn build(&self, mesh: Option<&IndexedMesh>) -> ExtraPayload {
+        let t = Instant::now();
+        let built = Built {
+            tile: mesh.map(|m| NavTile::build(m, &self.agent)),
+            ms: t.elapsed().as_secs_f64() * 1e3,
+            thread: std::thread::current().id(),
+            generation: self.generation,
+        };
+        Box::new(move |chunk: &mut EntityCommands| {
+            chunk.queue(move |e: EntityWorldMut| put_tile(e, built));
+        })
+    }
+}
+
+/// Links a built tile into its volume's navmesh (or takes the chunk's old one
+/// out), in the frame its mesh is shown.
+fn put_tile(mut chunk: EntityWorldMut, built: Built) {
+    let Some(info) = chunk.get::<KdChunk>() else {
+        return;
+    };
+    let (key, volume) = (ChunkKey::new(info.level, info.coord), info.volume);
+    chunk.world_scope(|world| {
+        let here = std::thread::current().id();
+        let Some(mut nav) = world.get_mut::<VolumeNavMesh>(volume) else {
+            return;
+        };
+        if nav.generation != built.generation {
+            return; // built for settings since changed: a new one is coming
+        }
+        let (mut built_n, mut removed, mut failed) = (0, 0, None);
+        let ran = built.tile.is_some();
+        match built.tile {
+            Some(Ok(tile)) if !tile.is_empty() => {
+                nav.navmesh.insert(key, Arc::new(tile));
+                built_n = 1;
+            }
+            Some(Err(e)) => {
+                removed = nav.navmesh.remove(&key) as u64;
+                failed = Some(format!("chunk {:?} (level {}): {e}", key.coord, key.level));
+            }
+            _ => removed = nav.navmesh.remove(&key) as u64,
+        }
+        let mut stats = world.resource_mut::<NavStats>();
+        stats.tiles_built += built_n;
+        stats.tiles_removed += removed;
+        if ran {
+            stats.build_ms += built.ms;
+            stats.build_ms_max = stats.build_ms_max.max(built.ms);
+            stats.built_on_main_thread += (built.thread == here) as u64;
+        }
+        if let Some(e) = failed {
+            warn!("navmesh tile: {e}");
+            stats.failures += 1;
+            stats.last_error = Some(e);
+        }
+    });
+}
+
+/// Where tiles are wanted from: the LOD camera and every anchor.
+type Anchors<'w, 's> =
+    Query<'w, 's, &'static GlobalTransform, Or<(With<LodCamera>, With<NavAnchor>)>>;
+
+/// The volumes, their navmesh if they have one yet.
+type Volumes<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Entity,
+        &'static GlobalTransform,
+        &'static mut VolumeState,
+        Option<&'static VolumeNavMesh>,
+    ),
+>;
+
+/// Gives new volumes (and every volume when the settings change) a fresh
+/// navmesh and the tile builder, then marks the chunks that want a tile; a
+/// chunk whose want changed is extracted again (with or without one). Runs
+/// before the LOD, which keeps those chunks at or below the tile threshold.
+fn want_tiles(
+    mut commands: Commands,
+    settings: Res<NavmeshSettings>,
+    clock: Res<MainThreadClock>,
+    mut stats: ResMut<NavStats>,
+    mut generation: Local<u64>,
+    anchors: Anchors,
+    mut volumes: Volumes,
+) {
+    let _time = clock.measure();
+    let agent = settings.agent();
+    let valid = agent.check();
+    if settings.is_changed() {
+        *generation += 1;
+        if let Err(e) = &valid {
+            warn!("{e}: no navmesh tiles until the settings are fixed");
+            stats.last_error = Some(e.to_string());
+        }
+    }
+    let enabled = settings.enabled && valid.is_ok();
+    for (entity, vol_tf, mut state, nav) in &mut volumes {
+        let state = &mut *state;
+        if nav.is_none_or(|n| n.generation != *generation) {
+            // A new volume or new settings: an empty navmesh, every tile again.
+            let navmesh = NavMesh::new(if valid.is_ok() {
+                agent.clone()
+            } else {
+                NavSettings::default()
+            })
+            .expect("checked settings");
+            commands.entity(entity).insert(VolumeNavMesh {
+                navmesh,
+                generation: *generation,
+            });
+            state.set_extra(
+                ExtraKind::NavTile,
+                Some(ChunkExtra {
+                    builder: Arc::new(TileExtra {
+                        agent: agent.clone(),
+                        generation: *generation,
+                    }),
+                    on: enabled.then_some(settings.threshold),
+                }),
+            );
+            state.refresh_extra(ExtraKind::NavTile);
+        }
+        let to_local = to_volume(vol_tf);
+        let points: Vec<Vec3> = anchors.iter().map(|a| to_local(a.translation())).collect();
+        state.want_near(ExtraKind::NavTile, enabled, settings.distance, &points);
+    }
+}
+
+/// Takes the tiles of chunks no longer loaded (streamed out, replaced by a
+/// level change) out of their navmesh, and totals the tiles for [`NavStats`].
+fn drop_stale_tiles(
+    clock: Res<MainThreadClock>,
+    mut stats: ResMut<NavStats>,
+    mut volumes: Query<(&VolumeState, &mut VolumeNavMesh)>,
+) {
+    let _time = clock.measure();
+    let (mut tiles, mut polygons, mut links) = (0, 0, 0);
+    for (state, mut nav) in &mut volumes {
+        let gone: Vec<ChunkKey> = nav
+            .navmesh
+            .keys()
+            .filter(|k| !state.slots.contains_key(k))
+            .copied()
+            .collect();
+        if !gone.is_empty() {
+            for k in &gone {
+                nav.navmesh.remove(k);
+            }
+            stats.tiles_removed += gone.len() as u64;
+        }
+        tiles += nav.navmesh.len();
+        polygons += nav.navmesh.polygon_count();
+        links += nav.navmesh.link_count();
+    }
+    if (stats.tiles, stats.polygons, stats.links) != (tiles, polygons, links) {
+        (stats.tiles, stats.polygons, stats.links) = (tiles, polygons, links);
+    }
+}
