@@ -17,6 +17,18 @@
 //!   every measured frame, and how far the camera was from where the shown
 //!   levels were made for it (the lag).
 //!
+//! - `frame_navmesh`: the terrain demo's field seen 1,024 cells out, navmesh
+//!   on: four agents (navigation anchors) walking circles at 5 units a second,
+//!   one of them digging a pit where it stands every two seconds, the camera
+//!   flying at 10 cells a second, at 60 frames a second. It prints the
+//!   plugin's main-thread time per frame (mean, p99, max; linking tiles in
+//!   counts), the whole update's main-thread processor time, the tiles built
+//!   (and any on the main thread: none), and the time of a path query between
+//!   two agents.
+//!
+//! Every group but `frame_navmesh` runs with navmesh tiles off (the bench
+//! builds with the tests' features, `navmesh` among them).
+//!
 //! `cargo bench -p bevy_kdcontour --bench frame`
 
 use bevy::app::{TaskPoolOptions, TaskPoolPlugin, TaskPoolThreadAssignmentPolicy};
@@ -42,13 +54,15 @@ fn frame(c: &mut Criterion) {
             },
         },
     ))
-    // The bench builds with feature `avian` (the tests' dev-dependency turns it
-    // on), which would give every chunk here a collider: those are measured by
-    // `frame_colliders`, so this one is the plugin without them.
+    // The bench builds with features `avian` and `navmesh` (the tests'
+    // dev-dependency turns them on), which would give every chunk here a
+    // collider and a tile: those are measured by `frame_colliders` and
+    // `frame_navmesh`, so this one is the plugin without them.
     .insert_resource(bevy_kdcontour::ColliderSettings {
         enabled: false,
         ..Default::default()
-    });
+    })
+    .insert_resource(no_navmesh());
     let volume = spawn_sphere_volume(&mut app);
     let cam = app
         .world_mut()
@@ -104,8 +118,17 @@ fn two_task_threads() -> TaskPoolPlugin {
     }
 }
 
+/// Navmesh tiles off (for the groups that do not measure them).
+fn no_navmesh() -> bevy_kdcontour::NavmeshSettings {
+    bevy_kdcontour::NavmeshSettings {
+        enabled: false,
+        ..Default::default()
+    }
+}
+
 fn horizon(c: &mut Criterion) {
     let mut app = App::new();
+    app.insert_resource(no_navmesh());
     app.add_plugins((
         HeadlessPlugins.set(two_task_threads()),
         KdContourPlugins {
@@ -316,7 +339,8 @@ impl ColliderRun {
             // Chunks are 0.2 units: about 250 chunks around the camera and anchor.
             distance: 0.5,
             ..Default::default()
-        });
+        })
+        .insert_resource(no_navmesh());
         // `App::run` does this; avian sets up its diagnostics resources in `finish`.
         app.finish();
         app.cleanup();
@@ -396,5 +420,222 @@ impl ColliderRun {
     }
 }
 
-criterion_group!(benches, frame, frame_colliders, horizon);
+/// The terrain's ground height at `(x, z)` (a ray down the field).
+fn ground(field: &dyn kdcontour::Field, x: f32, z: f32) -> Vec3 {
+    let top = Vec3::new(x, 120.0, z);
+    let t = kdcontour::field::raycast(field, top, Vec3::NEG_Y, 400.0, 0.5).unwrap_or(120.0);
+    top - Vec3::Y * t
+}
+
+fn frame_navmesh(c: &mut Criterion) {
+    use bevy_kdcontour::{NavAnchor, NavStats, VolumeNavMesh};
+    let mut app = App::new();
+    app.add_plugins((
+        HeadlessPlugins.set(two_task_threads()),
+        KdContourPlugins {
+            settings: KdContourSettings {
+                max_tasks_in_flight: 16,
+                lod: LodSettings {
+                    base: 0.02,
+                    near: 40.0,
+                    growth: 2.0,
+                    max: 4.0,
+                    ..Default::default()
+                },
+                ..Default::default()
+            },
+        },
+    ))
+    .insert_resource(bevy_kdcontour::ColliderSettings {
+        enabled: false,
+        ..Default::default()
+    });
+    let field: Arc<dyn kdcontour::Field> = Arc::new(Density::new(DensityParams::demo(7)));
+    let volume = app
+        .world_mut()
+        .spawn(KdVolume::horizon(field.clone(), 32, 1.0, 1024).with_rows(-3, 1))
+        .id();
+    let cam = app
+        .world_mut()
+        .spawn((LodCamera, Transform::from_xyz(0.0, 40.0, 0.0)))
+        .id();
+    let circles: Vec<(f32, f32)> = (0..4)
+        .map(|i| (12.0 + 8.0 * i as f32, i as f32 * 1.6))
+        .collect();
+    let agents: Vec<Entity> = circles
+        .iter()
+        .map(|(r, a)| {
+            let at = ground(&*field, r * a.cos(), r * a.sin());
+            app.world_mut()
+                .spawn((NavAnchor, Transform::from_translation(at)))
+                .id()
+        })
+        .collect();
+    assert!(
+        run_until_settled(&mut app, volume, 1_000_000, Duration::from_millis(1)),
+        "the view did not settle"
+    );
+    let settled = app.world().resource::<NavStats>().clone();
+    println!(
+        "frame_navmesh: {} tiles, {} polygons, {} links after the first view; {} tile builds \
+         of {:.1} ms mean, {:.1} ms max, {} on the main thread",
+        settled.tiles,
+        settled.polygons,
+        settled.links,
+        settled.tiles_built,
+        settled.build_ms / settled.tiles_built.max(1) as f64,
+        settled.build_ms_max,
+        settled.built_on_main_thread,
+    );
+    let mut frames: Vec<f64> = Vec::new();
+    let mut cpu: Vec<f64> = Vec::new();
+    let mut queries: Vec<f64> = Vec::new();
+    let mut own: Vec<f64> = Vec::new();
+    let (mut found, mut missed) = (0, 0);
+    let mut walk = NavWalk {
+        frame: 0,
+        cam,
+        agents: agents.clone(),
+        circles,
+        field: field.clone(),
+        volume,
+    };
+    let mut g = c.benchmark_group("frame_navmesh");
+    g.sample_size(10).measurement_time(Duration::from_secs(15));
+    g.bench_function("agents_walking_and_digging", |b| {
+        b.iter_custom(|n| {
+            let mut total = Duration::ZERO;
+            for _ in 0..n {
+                walk.advance(&mut app);
+                let t0 = std::time::Instant::now();
+                let c0 = thread_cpu_ms();
+                app.update();
+                cpu.push(thread_cpu_ms() - c0);
+                total += t0.elapsed();
+                frames.push(app.world().resource::<KdContourStats>().main_thread_ms);
+                own.push(app.world().resource::<NavStats>().main_thread_ms);
+                if walk.frame.is_multiple_of(30) {
+                    let at = |e: Entity| app.world().get::<Transform>(e).unwrap().translation;
+                    // Two agents that do not dig (the first digs itself into
+                    // its pits).
+                    let (a, b) = (at(agents[1]), at(agents[3]));
+                    let nav = app.world().get::<VolumeNavMesh>(volume).unwrap();
+                    let q = std::time::Instant::now();
+                    match nav.find_path(a + Vec3::Y, b + Vec3::Y) {
+                        Ok(_) => found += 1,
+                        Err(e) => {
+                            missed += 1;
+                            if missed <= 3 {
+                                println!("frame_navmesh: no path from {a} to {b}: {e}");
+                            }
+                        }
+                    }
+                    queries.push(q.elapsed().as_secs_f64() * 1e3);
+                }
+                std::thread::sleep(Duration::from_micros(16_667).saturating_sub(t0.elapsed()));
+            }
+            total
+        })
+    });
+    g.finish();
+    let end = app.world().resource::<NavStats>().clone();
+    // The same walk and digging with tiles off, as many frames: the baseline.
+    app.world_mut()
+        .resource_mut::<bevy_kdcontour::NavmeshSettings>()
+        .enabled = false;
+    let mut off: Vec<f64> = Vec::new();
+    let mut off_cpu: Vec<f64> = Vec::new();
+    for _ in 0..frames.len() {
+        walk.advance(&mut app);
+        let t0 = std::time::Instant::now();
+        let c0 = thread_cpu_ms();
+        app.update();
+        off_cpu.push(thread_cpu_ms() - c0);
+        off.push(app.world().resource::<KdContourStats>().main_thread_ms);
+        std::thread::sleep(Duration::from_micros(16_667).saturating_sub(t0.elapsed()));
+    }
+    if let (Some((mean, p99, max)), Some((c_mean, c_p99, c_max))) =
+        (spread(&mut off), spread(&mut off_cpu))
+    {
+        println!(
+            "frame_navmesh, tiles off (baseline): plugin main thread per frame over {} frames: \
+             mean {mean:.3} ms, p99 {p99:.3} ms, max {max:.3} ms; whole app update, main \
+             thread processor time: mean {c_mean:.3} ms, p99 {c_p99:.3} ms, max {c_max:.3} ms",
+            off.len()
+        );
+    }
+    let (Some((mean, p99, max)), Some((c_mean, c_p99, c_max)), Some((q_mean, q_p99, q_max))) =
+        (spread(&mut frames), spread(&mut cpu), spread(&mut queries))
+    else {
+        return;
+    };
+    println!(
+        "frame_navmesh: plugin main thread per frame over {} frames: mean {mean:.3} ms, p99 \
+         {p99:.3} ms, max {max:.3} ms; whole app update, main thread processor time: mean \
+         {c_mean:.3} ms, p99 {c_p99:.3} ms, max {c_max:.3} ms",
+        frames.len()
+    );
+    if let Some((mean, p99, max)) = spread(&mut own) {
+        println!(
+            "frame_navmesh: the navmesh subsystem's own main-thread time per frame (its \
+             systems and linking tiles in): mean {mean:.3} ms, p99 {p99:.3} ms, max {max:.3} ms"
+        );
+    }
+    let built = end.tiles_built - settled.tiles_built;
+    println!(
+        "frame_navmesh: {built} tiles built while walking ({} on the main thread, {} failed; \
+         {:.1} ms each in the tasks), {} tiles at the end; linking on the main thread: {:.3} ms \
+         a tile, {:.3} ms the slowest; path between two agents: {found} found, {missed} not, \
+         query mean {q_mean:.3} ms, p99 {q_p99:.3} ms, max {q_max:.3} ms",
+        end.built_on_main_thread,
+        end.failures,
+        (end.build_ms - settled.build_ms) / built.max(1) as f64,
+        end.tiles,
+        (end.link_ms - settled.link_ms) / built.max(1) as f64,
+        end.link_ms_max,
+    );
+}
+
+/// What moves in [`frame_navmesh`]: the camera flying at 10 cells a second,
+/// the agents walking circles at 5 units a second on the ground, the first
+/// digging a pit where it stands every 120 frames.
+struct NavWalk {
+    frame: u64,
+    cam: Entity,
+    agents: Vec<Entity>,
+    /// Each agent's circle: radius and starting angle.
+    circles: Vec<(f32, f32)>,
+    field: Arc<dyn kdcontour::Field>,
+    volume: Entity,
+}
+
+impl NavWalk {
+    /// Moves everything one 60 Hz frame on (the update is the caller's).
+    fn advance(&mut self, app: &mut App) {
+        use bevy_kdcontour::kdcontour::edit::{Brush, BrushOp};
+        self.frame += 1;
+        let t = self.frame as f32 / 60.0;
+        let step = Vec3::new(50.0, 0.0, 10.0).normalize() * (10.0 / 60.0);
+        app.world_mut()
+            .get_mut::<Transform>(self.cam)
+            .unwrap()
+            .translation += step;
+        for (i, (&agent, (r, a))) in self.agents.iter().zip(&self.circles).enumerate() {
+            let angle = a + t * 5.0 / r * if i % 2 == 0 { 1.0 } else { -1.0 };
+            let at = ground(&*self.field, r * angle.cos(), r * angle.sin());
+            app.world_mut()
+                .get_mut::<Transform>(agent)
+                .unwrap()
+                .translation = at;
+            if i == 0 && self.frame.is_multiple_of(120) {
+                app.world_mut().write_message(ApplyEdit::new(
+                    self.volume,
+                    Brush::sphere(at, 3.0, BrushOp::SmoothSubtract { radius: 1.0 }),
+                ));
+            }
+        }
+    }
+}
+
+criterion_group!(benches, frame, frame_colliders, horizon, frame_navmesh);
 criterion_main!(benches);

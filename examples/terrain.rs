@@ -16,7 +16,9 @@
 //! 4 snow) and back. Ctrl+Z takes back the last stroke, Ctrl+Shift+Z (or Ctrl+Y)
 //! puts it back. L colours chunks by level (blue finest, red coarsest). V walks
 //! (a capsule player with gravity on the terrain; Space jumps) or flies again.
-//! F1 hides the panel.
+//! G places four agents at the cursor (turning the navmesh on), then sends them
+//! to it: they walk the navmesh around what was dug and up what was raised,
+//! drawing their paths. F1 hides the panel.
 //!
 //! The sculpting is saved to `terrain-seed<SEED>.kdsave` in the working
 //! directory two seconds after the last stroke and on exit, and loaded at the
@@ -43,6 +45,7 @@ use bevy_kdcontour::net::{Cursor, Follower, LocalCursor, NetVolume, PeerCursors}
 use bevy_kdcontour::panel::KdContourPanel;
 use bevy_kdcontour::prelude::*;
 use clap::Parser;
+use common::agents::{place_or_send, Agents, AgentsPlugin};
 use common::{FlyCam, ShotArgs};
 use std::sync::Arc;
 
@@ -180,7 +183,11 @@ fn main() {
     })
     // Walking stands on the chunk colliders (`common::add_plugins` starts them off).
     .insert_resource(bevy_kdcontour::ColliderSettings::default())
-    .add_plugins((PhysicsPlugins::default(), TerrainMaterialPlugin))
+    .add_plugins((
+        PhysicsPlugins::default(),
+        TerrainMaterialPlugin,
+        AgentsPlugin,
+    ))
     .init_resource::<common::walk::Walking>()
     .add_systems(Startup, setup)
     .add_systems(
@@ -190,6 +197,7 @@ fn main() {
             common::fly_camera,
             common::walk::walk,
             sculpt,
+            agents_key,
             undo_redo,
             brush_preview,
             scripted_edits,
@@ -199,6 +207,14 @@ fn main() {
     );
     if args.walk {
         app.insert_resource(common::walk::WalkAtStart);
+    }
+    if scripted && !args.net.on() {
+        // The picture waits for the agents to be on their way.
+        app.insert_resource(common::ShotWait {
+            open: false,
+            linger: std::time::Duration::ZERO,
+        })
+        .add_systems(Update, agents_gate);
     }
     common::net::add(&mut app, &args.net);
     if args.net.on() {
@@ -350,6 +366,7 @@ fn sculpt(
     volumes: Query<&VolumeState>,
     mut panel: ResMut<KdContourPanel>,
     mut sculpt: ResMut<Sculpt>,
+    agents: Res<Agents>,
     mut edits: MessageWriter<ApplyEdit>,
 ) {
     if keys.just_pressed(KeyCode::KeyP) {
@@ -374,7 +391,11 @@ fn sculpt(
         format!("brush radius {:.1} (wheel)", sculpt.radius),
         format!("left: {left}   right: dig   P: paint / add"),
         "Ctrl+Z: undo   Ctrl+Shift+Z: redo".to_string(),
+        "G: agents (place at the cursor, then send there)".to_string(),
     ];
+    if !agents.status.is_empty() {
+        panel.extra.push(agents.status.clone());
+    }
     if panel.pointer_over {
         sculpt.aim = None;
         return;
@@ -414,6 +435,42 @@ fn sculpt(
         ApplyEdit::new(sculpt.volume, brush)
     });
     sculpt.stroke = true;
+}
+
+/// G places the agents at the cursor, then sends them there.
+fn agents_key(keys: Res<ButtonInput<KeyCode>>, sculpt: Res<Sculpt>, mut spawn: AgentSpawn) {
+    if let (true, Some(at)) = (keys.just_pressed(KeyCode::KeyG), sculpt.aim) {
+        spawn.place_or_send(sculpt.volume, at);
+    }
+}
+
+/// What placing and sending the agents needs.
+#[derive(bevy::ecs::system::SystemParam)]
+struct AgentSpawn<'w, 's> {
+    commands: Commands<'w, 's>,
+    meshes: ResMut<'w, Assets<Mesh>>,
+    materials: ResMut<'w, Assets<StandardMaterial>>,
+    agents: ResMut<'w, Agents>,
+    navmesh: ResMut<'w, bevy_kdcontour::NavmeshSettings>,
+}
+
+impl AgentSpawn<'_, '_> {
+    fn place_or_send(&mut self, volume: Entity, at: Vec3) {
+        place_or_send(
+            &mut self.commands,
+            &mut self.meshes,
+            &mut self.materials,
+            &mut self.agents,
+            &mut self.navmesh,
+            volume,
+            at,
+        );
+    }
+}
+
+/// In a screenshot: the picture once the agents have walked a while.
+fn agents_gate(agents: Res<Agents>, mut wait: ResMut<common::ShotWait>) {
+    wait.open = agents.walked >= 25;
 }
 
 /// Ctrl+Z takes back the last stroke, Ctrl+Shift+Z or Ctrl+Y puts it back.
@@ -460,6 +517,7 @@ fn toggle_levels(keys: Res<ButtonInput<KeyCode>>, mut settings: ResMut<KdContour
 
 /// In screenshot mode: dig a crater, raise a mound and paint a patch where the
 /// screen center looks, the way a user's clicks would, so the picture shows edits.
+#[allow(clippy::too_many_arguments)]
 fn scripted_edits(
     seed: Res<Seed>,
     mut done: Local<bool>,
@@ -468,6 +526,7 @@ fn scripted_edits(
     volumes: Query<&VolumeState>,
     followers: Query<&Follower>,
     mut edits: MessageWriter<ApplyEdit>,
+    mut spawn: AgentSpawn,
 ) {
     if !seed.scripted || *done {
         return;
@@ -515,18 +574,34 @@ fn scripted_edits(
         sculpt.scripted_aim = raycast(state.field(), ray.origin, *ray.direction, 400.0, 0.5)
             .map(|t| ray.origin + *ray.direction * t);
     }
+    let ground = |fx: f32, fy: f32| {
+        let ray = camera
+            .viewport_to_world(tf, size * Vec2::new(fx, fy))
+            .ok()?;
+        let t = raycast(state.field(), ray.origin, *ray.direction, 400.0, 0.5)?;
+        Some(ray.origin + *ray.direction * t)
+    };
     for (fx, fy, op, r, material) in brushes {
-        let Ok(ray) = camera.viewport_to_world(tf, size * Vec2::new(fx, fy)) else {
-            continue;
-        };
-        if let Some(t) = raycast(state.field(), ray.origin, *ray.direction, 400.0, 0.5) {
+        if let Some(at) = ground(fx, fy) {
             edits.write(ApplyEdit::new(
                 sculpt.volume,
-                Brush::sphere(ray.origin + *ray.direction * t, r, op).with_material(material),
+                Brush::sphere(at, r, op).with_material(material),
             ));
         }
     }
+    // One player's picture: agents on their way across, past the crater.
+    if seed.shared.is_none() {
+        for (fx, fy) in [AGENTS_FROM, AGENTS_TO] {
+            if let Some(at) = ground(fx, fy) {
+                spawn.place_or_send(sculpt.volume, at);
+            }
+        }
+    }
 }
+
+/// Where the screenshot's agents start and go (fractions of the view).
+const AGENTS_FROM: (f32, f32) = (0.22, 0.78);
+const AGENTS_TO: (f32, f32) = (0.8, 0.45);
 
 /// Where this player's brush aims, for the others to see.
 fn share_aim(sculpt: Res<Sculpt>, mut cursor: ResMut<LocalCursor>) {

@@ -1,7 +1,8 @@
 //! An egui panel for the plugin (crate feature `egui`): counts, meshing times,
 //! the threshold and the LOD curve, the iso value, wireframe and LOD colouring,
-//! each edited volume's undo and redo, and (feature `avian`) the collider
-//! distance, threshold and layers.
+//! each edited volume's undo and redo, (feature `avian`) the collider
+//! distance, threshold and layers, and (feature `navmesh`) the navmesh agent's
+//! radius, height, slope and climb with the tiles' counts.
 //!
 //! Add [`KdContourPanelPlugin`] after [`crate::KdContourPlugins`] (it adds
 //! `bevy_egui`'s `EguiPlugin` and Bevy's `WireframePlugin` when they are missing).
@@ -103,6 +104,61 @@ fn collider_rows(ui: &mut egui::Ui, c: &mut crate::ColliderSettings) {
     }
 }
 
+/// The navmesh settings: on or off, the agent (radius, height, steepest
+/// slope, climb) and the distance; returns new settings when they changed. A
+/// change rebuilds every tile, so a slider edits a draft and the settings take
+/// it when the drag ends.
+#[cfg(feature = "navmesh")]
+fn navmesh_rows(
+    ui: &mut egui::Ui,
+    settings: &crate::NavmeshSettings,
+    draft: &mut Option<crate::NavmeshSettings>,
+    stats: &crate::NavStats,
+) -> Option<crate::NavmeshSettings> {
+    ui.separator();
+    let mut enabled = settings.enabled;
+    let mut out = None;
+    if ui.checkbox(&mut enabled, "navmesh").changed() {
+        out = Some(crate::NavmeshSettings {
+            enabled,
+            ..settings.clone()
+        });
+    }
+    if !enabled {
+        return out;
+    }
+    let d = draft.get_or_insert_with(|| settings.clone());
+    let mut commit = false;
+    let mut row = |ui: &mut egui::Ui, v: &mut f32, range: RangeInclusive<f32>, label: &str| {
+        let r = ui.add(egui::Slider::new(v, range).text(label));
+        commit |= r.drag_stopped() || (r.changed() && !r.dragged());
+    };
+    row(ui, &mut d.agent_radius, 0.1..=2.0, "agent radius");
+    row(ui, &mut d.agent_height, 0.5..=4.0, "agent height");
+    row(
+        ui,
+        &mut d.max_slope_degrees,
+        5.0..=85.0,
+        "max slope (degrees)",
+    );
+    row(ui, &mut d.max_climb, 0.0..=2.0, "max climb");
+    row(ui, &mut d.distance, 8.0..=256.0, "navmesh distance");
+    if commit {
+        out = Some(crate::NavmeshSettings {
+            enabled,
+            ..d.clone()
+        });
+    }
+    ui.small(format!(
+        "{} tiles, {} polygons, {} links; slowest tile {:.1} ms",
+        stats.tiles, stats.polygons, stats.links, stats.build_ms_max
+    ));
+    if let Some(e) = &stats.last_error {
+        ui.small(e.as_str());
+    }
+    out
+}
+
 /// Checkboxes for bits 0-7 of a collision layer mask (higher bits are kept
 /// as they are, and shown).
 #[cfg(feature = "avian")]
@@ -171,6 +227,11 @@ fn draw_panel(
     mut undo: MessageWriter<UndoEdit>,
     mut redo: MessageWriter<RedoEdit>,
     #[cfg(feature = "avian")] colliders: Option<ResMut<crate::ColliderSettings>>,
+    #[cfg(feature = "navmesh")] navmesh: Option<(
+        ResMut<crate::NavmeshSettings>,
+        Res<crate::NavStats>,
+    )>,
+    #[cfg(feature = "navmesh")] mut nav_draft: Local<Option<crate::NavmeshSettings>>,
 ) -> Result {
     let ctx = contexts.ctx_mut()?;
     if !panel.open {
@@ -262,6 +323,16 @@ fn draw_panel(
             #[cfg(feature = "avian")]
             if let Some(mut c) = colliders {
                 collider_rows(ui, &mut c);
+            }
+            #[cfg(feature = "navmesh")]
+            if let Some((mut n, stats)) = navmesh {
+                if n.is_changed() {
+                    *nav_draft = Some(n.clone());
+                }
+                // Written only on a change: a new value rebuilds every tile.
+                if let Some(new) = navmesh_rows(ui, &n, &mut nav_draft, &stats) {
+                    *n = new;
+                }
             }
             ui.horizontal(|ui| {
                 if let Some(w) = wireframe.as_mut() {

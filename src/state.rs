@@ -103,6 +103,19 @@ pub struct VolumeState {
     /// [`ExtraKind`] (set by the collider and navmesh subsystems; `None`
     /// without them).
     extras: [Option<ChunkExtra>; EXTRA_KINDS],
+    /// What [`VolumeState::want_near`] last marked from, per kind: with the
+    /// same anchors (to a unit), settings and chunks, nothing changes.
+    wanted_for: [Option<WantedFor>; EXTRA_KINDS],
+}
+
+/// The inputs of one [`VolumeState::want_near`]: anchors to the unit, the
+/// distance, whether it is on, and a fingerprint of the loaded chunks.
+#[derive(Clone, PartialEq)]
+struct WantedFor {
+    points: Vec<IVec3>,
+    distance: u32,
+    enabled: bool,
+    chunks: (usize, u64),
 }
 
 impl VolumeState {
@@ -118,6 +131,7 @@ impl VolumeState {
             stream_key: None,
             horizon: HorizonState::default(),
             extras: Default::default(),
+            wanted_for: Default::default(),
         }
     }
 
@@ -299,6 +313,24 @@ impl VolumeState {
         points: &[Vec3],
     ) {
         let i = kind as usize;
+        // The same inputs mark the same chunks: skip the seam lookups (anchors
+        // move a little every frame; to the unit is plenty at any distance).
+        let inputs = WantedFor {
+            points: points.iter().map(|p| p.round().as_ivec3()).collect(),
+            distance: distance.to_bits(),
+            enabled,
+            chunks: self.slots.keys().fold((0, 0), |(n, h), k| {
+                let (x, y, z, l) = k.order();
+                let mix = (x as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
+                    ^ (y as u64).wrapping_mul(0xc2b2_ae3d_27d4_eb4f)
+                    ^ (z as u64).wrapping_mul(0x1656_67b1_9e37_79f9)
+                    ^ (l as u64).rotate_left(17);
+                (n + 1, h ^ mix)
+            }),
+        };
+        if self.wanted_for[i].as_ref() == Some(&inputs) {
+            return;
+        }
         // Marks on the slots rather than a set of keys: the near chunks' seam
         // owners are looked up once each, and nothing is hashed twice.
         for slot in self.slots.values_mut() {
@@ -326,14 +358,17 @@ impl VolumeState {
             .map(|(k, _)| *k)
             .collect();
         changed.sort_by_key(|k| k.order());
+        let mut waiting = false;
         for k in changed {
             if self.shows_held(&k) {
+                waiting = true; // tried again next frame
                 continue;
             }
             let slot = self.slots.get_mut(&k).expect("listed");
             slot.carries[i] = !slot.carries[i];
             slot.work.request_extract();
         }
+        self.wanted_for[i] = (!waiting).then_some(inputs);
     }
 
     /// Extracts again every chunk that carries the extra `kind` (its builder

@@ -77,8 +77,16 @@ impl MainThreadClock {
         }
     }
 
+    /// Adds time measured elsewhere (a command the plugin queued, which runs
+    /// after its system's guard has dropped).
+    #[cfg_attr(not(feature = "navmesh"), allow(dead_code))]
+    pub(crate) fn add(&self, time: std::time::Duration) {
+        let ns = time.as_nanos().min(u64::MAX as u128) as u64;
+        self.nanos.fetch_add(ns, Ordering::Relaxed);
+    }
+
     /// The time summed since the last call, in ms, and a fresh start.
-    fn take_ms(&self) -> f64 {
+    pub(crate) fn take_ms(&self) -> f64 {
         self.nanos.swap(0, Ordering::Relaxed) as f64 * 1e-6
     }
 }

@@ -3,6 +3,7 @@
 //! sun with sky light.
 #![allow(dead_code)] // not every example uses every helper
 
+pub mod agents;
 pub mod net;
 pub mod walk;
 
@@ -67,8 +68,8 @@ pub fn fixed(threshold: f32) -> KdContourSettings {
 
 /// Adds what every example runs on: Bevy's default plugins with the example's
 /// window, the meshing plugins with `settings` (start from [`preset`]), the egui
-/// panel, and the screenshot harness. Chunk colliders start off: only the
-/// terrain demo runs physics (it turns them on).
+/// panel, and the screenshot harness. Chunk colliders and navmesh tiles start
+/// off: only the terrain demo runs physics and agents (it turns them on).
 pub fn add_plugins<'a>(
     app: &'a mut App,
     title: &str,
@@ -85,6 +86,12 @@ pub fn add_plugins<'a>(
     // The examples build with feature `avian` (the terrain demo walks on the
     // colliders); with no physics running, colliders would be wasted work.
     .insert_resource(bevy_kdcontour::ColliderSettings {
+        enabled: false,
+        ..default()
+    })
+    // Navmesh tiles start off too: the terrain demo turns them on when its
+    // agents are placed.
+    .insert_resource(bevy_kdcontour::NavmeshSettings {
         enabled: false,
         ..default()
     })

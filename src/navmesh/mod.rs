@@ -28,7 +28,7 @@ use crate::mesh::{ChunkExtra, ExtraKind, ExtraPayload, MeshExtra};
 use crate::state::VolumeState;
 use crate::stats::MainThreadClock;
 use crate::volume::{to_volume, KdChunk, LodCamera};
-use crate::KdContourStep;
+use crate::{KdContourStep, KdContourSystems};
 use bevy::ecs::system::EntityCommands;
 use bevy::prelude::*;
 use kdcontour::world::ChunkKey;
@@ -44,6 +44,7 @@ pub struct NavmeshPlugin;
 impl Plugin for NavmeshPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<MainThreadClock>()
+            .init_resource::<NavClock>()
             .init_resource::<NavmeshSettings>()
             .init_resource::<NavStats>()
             .register_type::<NavmeshSettings>()
@@ -54,6 +55,7 @@ impl Plugin for NavmeshPlugin {
                 (
                     want_tiles.in_set(KdContourStep::ChooseChunks),
                     drop_stale_tiles.in_set(KdContourStep::AfterUpload),
+                    publish_time.in_set(KdContourSystems::Stats),
                 ),
             );
     }
@@ -135,6 +137,11 @@ pub struct NavStats {
     pub build_ms: f64,
     /// The slowest tile build, in milliseconds.
     pub build_ms_max: f64,
+    /// Milliseconds spent on the main thread linking tiles in (or taking them
+    /// out), in all.
+    pub link_ms: f64,
+    /// The slowest linking of one tile, in milliseconds.
+    pub link_ms_max: f64,
     /// Tiles held now, over all volumes.
     pub tiles: usize,
     /// Their polygons.
@@ -143,6 +150,19 @@ pub struct NavStats {
     pub links: usize,
     /// The last error (a tile that failed, settings out of range).
     pub last_error: Option<String>,
+    /// The navmesh subsystem's main-thread time last frame, in milliseconds
+    /// (its systems and the linking of tiles; part of
+    /// [`crate::KdContourStats::main_thread_ms`]).
+    pub main_thread_ms: f64,
+}
+
+/// The navmesh subsystem's own share of the plugin's main-thread clock.
+#[derive(Resource, Default)]
+struct NavClock(MainThreadClock);
+
+/// Publishes the frame's navmesh main-thread time ([`NavStats::main_thread_ms`]).
+fn publish_time(clock: Res<NavClock>, mut stats: ResMut<NavStats>) {
+    stats.main_thread_ms = clock.0.take_ms();
 }
 
 /// A volume's navmesh: the tiles of its chunks, linked (added to every volume
@@ -215,8 +235,29 @@ impl MeshExtra for TileExtra {
 }
 
 /// Links a built tile into its volume's navmesh (or takes the chunk's old one
-/// out), in the frame its mesh is shown.
+/// out), in the frame its mesh is shown; its main-thread time counts on the
+/// plugin's clock.
 fn put_tile(mut chunk: EntityWorldMut, built: Built) {
+    let start = Instant::now();
+    link_tile(&mut chunk, built);
+    let took = start.elapsed();
+    chunk.world_scope(|world| {
+        if let Some(clock) = world.get_resource::<MainThreadClock>() {
+            clock.add(took);
+        }
+        if let Some(clock) = world.get_resource::<NavClock>() {
+            clock.0.add(took);
+        }
+        if let Some(mut stats) = world.get_resource_mut::<NavStats>() {
+            let ms = took.as_secs_f64() * 1e3;
+            stats.link_ms += ms;
+            stats.link_ms_max = stats.link_ms_max.max(ms);
+        }
+    });
+}
+
+/// What [`put_tile`] does.
+fn link_tile(chunk: &mut EntityWorldMut, built: Built) {
     let Some(info) = chunk.get::<KdChunk>() else {
         return;
     };
@@ -278,16 +319,19 @@ type Volumes<'w, 's> = Query<
 /// navmesh and the tile builder, then marks the chunks that want a tile; a
 /// chunk whose want changed is extracted again (with or without one). Runs
 /// before the LOD, which keeps those chunks at or below the tile threshold.
+// A Bevy system takes one parameter per resource it reads.
+#[allow(clippy::too_many_arguments)]
 fn want_tiles(
     mut commands: Commands,
     settings: Res<NavmeshSettings>,
     clock: Res<MainThreadClock>,
+    nav_clock: Res<NavClock>,
     mut stats: ResMut<NavStats>,
     mut generation: Local<u64>,
     anchors: Anchors,
     mut volumes: Volumes,
 ) {
-    let _time = clock.measure();
+    let (_time, _nav_time) = (clock.measure(), nav_clock.0.measure());
     let agent = settings.agent();
     let valid = agent.check();
     if settings.is_changed() {
@@ -334,10 +378,11 @@ fn want_tiles(
 /// level change) out of their navmesh, and totals the tiles for [`NavStats`].
 fn drop_stale_tiles(
     clock: Res<MainThreadClock>,
+    nav_clock: Res<NavClock>,
     mut stats: ResMut<NavStats>,
     mut volumes: Query<(&VolumeState, &mut VolumeNavMesh)>,
 ) {
-    let _time = clock.measure();
+    let (_time, _nav_time) = (clock.measure(), nav_clock.0.measure());
     let (mut tiles, mut polygons, mut links) = (0, 0, 0);
     for (state, mut nav) in &mut volumes {
         let gone: Vec<ChunkKey> = nav

@@ -9,8 +9,9 @@ use glam::{UVec3, Vec3};
 use kdcontour::field::terrain::{Density, DensityParams};
 use kdcontour::world::{ChunkKey, World};
 use kdcontour::{IndexedMesh, Settings};
-use kdcontour_nav::{NavSettings, NavTile};
+use kdcontour_nav::{NavMesh, NavSettings, NavTile};
 use std::hint::black_box;
+use std::sync::Arc;
 
 fn tiles(c: &mut Criterion) {
     // The demo's terrain: 3 x 2 x 3 chunks of 32 cells at the demo's
@@ -63,6 +64,22 @@ fn tiles(c: &mut Criterion) {
             for (_, m) in &meshes {
                 black_box(NavTile::build(m, &settings).unwrap().polys.len());
             }
+        })
+    });
+    // Linking is the main thread's part: every tile put in, linked to the
+    // ones already there.
+    let tiles: Vec<(ChunkKey, Arc<NavTile>)> = meshes
+        .iter()
+        .zip(built)
+        .map(|((k, _), t)| (*k, Arc::new(t)))
+        .collect();
+    g.bench_function("link_all", |b| {
+        b.iter(|| {
+            let mut nav = NavMesh::new(settings.clone()).unwrap();
+            for (k, t) in &tiles {
+                nav.insert(*k, t.clone());
+            }
+            black_box(nav.link_count())
         })
     });
     g.finish();

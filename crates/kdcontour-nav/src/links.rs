@@ -24,20 +24,6 @@ pub(crate) fn touch(a: &NavTile, b: &NavTile) -> bool {
     (a.lo.cmple(b.hi + e) & b.lo.cmple(a.hi + e)).all()
 }
 
-/// The open edges of `t`: polygon, and the edge's ends.
-fn open_edges(t: &NavTile) -> Vec<(u32, Vec3, Vec3)> {
-    let mut out = Vec::new();
-    for (p, poly) in t.polys.iter().enumerate() {
-        for (e, n) in poly.neighbors.iter().enumerate() {
-            if n.is_none() {
-                let (a, b) = t.edge(p as u32, e);
-                out.push((p as u32, a, b));
-            }
-        }
-    }
-    out
-}
-
 fn xz(v: Vec3) -> Vec2 {
     Vec2::new(v.x, v.z)
 }
@@ -63,13 +49,17 @@ pub(crate) fn link(a: &NavTile, b: &NavTile, s: &NavSettings) -> (Vec<Link>, Vec
     let across = s.link_tolerance * cs;
     let climb = s.max_climb + 2.0 * a.cell_height.max(b.cell_height);
     // Only the edges near the other tile can meet it.
-    let ea: Vec<_> = open_edges(a)
-        .into_iter()
+    let ea: Vec<_> = a
+        .open_edges
+        .iter()
         .filter(|(_, p, q)| near_box(b, *p, across, climb) || near_box(b, *q, across, climb))
+        .copied()
         .collect();
-    let eb: Vec<_> = open_edges(b)
-        .into_iter()
+    let eb: Vec<_> = b
+        .open_edges
+        .iter()
         .filter(|(_, p, q)| near_box(a, *p, across, climb) || near_box(a, *q, across, climb))
+        .copied()
         .collect();
     for &(pa, a0, a1) in &ea {
         let d = xz(a1) - xz(a0);

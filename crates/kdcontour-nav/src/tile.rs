@@ -57,6 +57,10 @@ pub struct NavTile {
     /// Floor outlines Recast could not cut into polygons (an outline that
     /// crosses itself), left out of the tile.
     pub dropped_outlines: usize,
+    /// The polygon edges with no neighbour in the tile (walls, and where the
+    /// floors of other tiles may link): polygon and the edge's ends. Found
+    /// once, where the tile is built, so linking it in is quick.
+    pub open_edges: Vec<(u32, Vec3, Vec3)>,
 }
 
 impl NavTile {
@@ -168,6 +172,7 @@ impl NavTile {
         let detail = DetailNavmesh::new(&poly, &chf, DETAIL_SAMPLE_CELLS * cs, ch)
             .map_err(|e| recast("detail mesh")(&e))?;
         tile.take_polygons(&poly, &detail);
+        tile.open_edges = tile.find_open_edges();
         Ok(tile)
     }
 
@@ -245,6 +250,20 @@ impl NavTile {
                 detail,
             });
         }
+    }
+
+    /// The polygon edges with no neighbour in the tile.
+    fn find_open_edges(&self) -> Vec<(u32, Vec3, Vec3)> {
+        let mut out = Vec::new();
+        for (p, poly) in self.polys.iter().enumerate() {
+            for (e, n) in poly.neighbors.iter().enumerate() {
+                if n.is_none() {
+                    let (a, b) = self.edge(p as u32, e);
+                    out.push((p as u32, a, b));
+                }
+            }
+        }
+        out
     }
 
     /// Whether it has no walkable polygon.
