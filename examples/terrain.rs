@@ -29,6 +29,7 @@
 //! cargo run --release --example terrain
 //! cargo run --release --example terrain -- --screenshot terrain.png
 //! cargo run --release --example terrain -- --overview --screenshot levels.png
+//! cargo run --release --example terrain -- --agents --screenshot agents.png
 //! cargo run --release --example terrain -- --flat --view-distance 160
 //! ```
 
@@ -81,6 +82,10 @@ struct Args {
     /// Start walking (as the V key does): a capsule drops from the camera.
     #[arg(long)]
     walk: bool,
+    /// In a screenshot: four agents walking from below the dug crater to
+    /// beyond it, their paths drawn (as the G key places and sends them).
+    #[arg(long)]
+    agents: bool,
     #[command(flatten)]
     net: common::net::NetArgs,
     #[command(flatten)]
@@ -180,6 +185,7 @@ fn main() {
         save,
         shared: args.net.on().then(|| KdSave::fingerprint_of(&params)),
         joins: args.net.joins(),
+        agents: args.agents,
     })
     // Walking stands on the chunk colliders (`common::add_plugins` starts them off).
     .insert_resource(bevy_kdcontour::ColliderSettings::default())
@@ -208,7 +214,7 @@ fn main() {
     if args.walk {
         app.insert_resource(common::walk::WalkAtStart);
     }
-    if scripted && !args.net.on() {
+    if scripted && args.agents && !args.net.on() {
         // The picture waits for the agents to be on their way.
         app.insert_resource(common::ShotWait {
             open: false,
@@ -245,6 +251,8 @@ struct Seed {
     shared: Option<String>,
     /// This run joins another's game.
     joins: bool,
+    /// Place and send agents in the screenshot.
+    agents: bool,
 }
 
 fn setup(
@@ -589,8 +597,9 @@ fn scripted_edits(
             ));
         }
     }
-    // One player's picture: agents on their way across, past the crater.
-    if seed.shared.is_none() {
+    // One player's picture: agents on their way from below the crater to
+    // beyond it, around it.
+    if seed.agents && seed.shared.is_none() {
         for (fx, fy) in [AGENTS_FROM, AGENTS_TO] {
             if let Some(at) = ground(fx, fy) {
                 spawn.place_or_send(sculpt.volume, at);
@@ -600,8 +609,8 @@ fn scripted_edits(
 }
 
 /// Where the screenshot's agents start and go (fractions of the view).
-const AGENTS_FROM: (f32, f32) = (0.22, 0.78);
-const AGENTS_TO: (f32, f32) = (0.8, 0.45);
+const AGENTS_FROM: (f32, f32) = (0.56, 0.86);
+const AGENTS_TO: (f32, f32) = (0.52, 0.36);
 
 /// Where this player's brush aims, for the others to see.
 fn share_aim(sculpt: Res<Sculpt>, mut cursor: ResMut<LocalCursor>) {

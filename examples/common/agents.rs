@@ -202,8 +202,9 @@ fn draw(mut gizmos: Gizmos, agents: Res<Agents>, walkers: Query<(&Transform, &Ag
                 goal + lift,
                 Quat::from_rotation_x(std::f32::consts::FRAC_PI_2),
             ),
-            1.0,
+            2.0,
             Color::WHITE,
         );
+        gizmos.line(goal, goal + Vec3::Y * 4.0, Color::WHITE);
     }
 }
