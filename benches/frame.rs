@@ -126,9 +126,10 @@ fn no_navmesh() -> bevy_kdcontour::NavmeshSettings {
     }
 }
 
-fn horizon(c: &mut Criterion) {
+/// A headless app with the terrain demo's settings (camera LOD, 16 tasks in
+/// flight) on 2 task threads, for `horizon_4096` and `frame_navmesh`.
+fn demo_app() -> App {
     let mut app = App::new();
-    app.insert_resource(no_navmesh());
     app.add_plugins((
         HeadlessPlugins.set(two_task_threads()),
         KdContourPlugins {
@@ -145,6 +146,12 @@ fn horizon(c: &mut Criterion) {
             },
         },
     ));
+    app
+}
+
+fn horizon(c: &mut Criterion) {
+    let mut app = demo_app();
+    app.insert_resource(no_navmesh());
     let field: Arc<dyn kdcontour::Field> = Arc::new(Density::new(DensityParams::demo(7)));
     let volume = app
         .world_mut()
@@ -429,24 +436,8 @@ fn ground(field: &dyn kdcontour::Field, x: f32, z: f32) -> Vec3 {
 
 fn frame_navmesh(c: &mut Criterion) {
     use bevy_kdcontour::{NavAnchor, NavStats, VolumeNavMesh};
-    let mut app = App::new();
-    app.add_plugins((
-        HeadlessPlugins.set(two_task_threads()),
-        KdContourPlugins {
-            settings: KdContourSettings {
-                max_tasks_in_flight: 16,
-                lod: LodSettings {
-                    base: 0.02,
-                    near: 40.0,
-                    growth: 2.0,
-                    max: 4.0,
-                    ..Default::default()
-                },
-                ..Default::default()
-            },
-        },
-    ))
-    .insert_resource(bevy_kdcontour::ColliderSettings {
+    let mut app = demo_app();
+    app.insert_resource(bevy_kdcontour::ColliderSettings {
         enabled: false,
         ..Default::default()
     });
