@@ -22,9 +22,11 @@
 //!   one of them digging a pit where it stands every two seconds, the camera
 //!   flying at 10 cells a second, at 60 frames a second. It prints the
 //!   plugin's main-thread time per frame (mean, p99, max; linking tiles in
-//!   counts), the whole update's main-thread processor time, the tiles built
-//!   (and any on the main thread: none), and the time of a path query between
-//!   two agents.
+//!   counts) by the clock and as processor time, the whole update's
+//!   main-thread processor time, the tiles built (and any on the main thread:
+//!   none), and the time of a path query between two agents; then the same
+//!   with tiles off. `frame_navmesh_spare_core` repeats it with one chunk
+//!   worker fewer than the cores, so the frame's threads never wait for one.
 //!
 //! Every group but `frame_navmesh` runs with navmesh tiles off (the bench
 //! builds with the tests' features, `navmesh` among them).
@@ -128,13 +130,14 @@ fn no_navmesh() -> bevy_kdcontour::NavmeshSettings {
 
 /// A headless app with the terrain demo's settings (camera LOD, 16 tasks in
 /// flight) on 2 task threads, for `horizon_4096` and `frame_navmesh`.
-fn demo_app() -> App {
+fn demo_app(chunk_threads: usize) -> App {
     let mut app = App::new();
     app.add_plugins((
         HeadlessPlugins.set(two_task_threads()),
         KdContourPlugins {
             settings: KdContourSettings {
                 max_tasks_in_flight: 16,
+                chunk_threads,
                 lod: LodSettings {
                     base: 0.02,
                     near: 40.0,
@@ -150,7 +153,7 @@ fn demo_app() -> App {
 }
 
 fn horizon(c: &mut Criterion) {
-    let mut app = demo_app();
+    let mut app = demo_app(0);
     app.insert_resource(no_navmesh());
     let field: Arc<dyn kdcontour::Field> = Arc::new(Density::new(DensityParams::demo(7)));
     let volume = app
@@ -435,8 +438,50 @@ fn ground(field: &dyn kdcontour::Field, x: f32, z: f32) -> Vec3 {
 }
 
 fn frame_navmesh(c: &mut Criterion) {
+    navmesh_walk(c, "frame_navmesh", 0);
+    // The same with one core left to the frame's threads: 1 chunk worker on
+    // this 2-core machine.
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    navmesh_walk(
+        c,
+        "frame_navmesh_spare_core",
+        cores.saturating_sub(1).max(1),
+    );
+}
+
+/// Wall-clock and processor-time spreads of the plugin's main-thread time over
+/// some frames, printed as one line.
+#[derive(Default)]
+struct PluginTimes {
+    wall: Vec<f64>,
+    cpu: Vec<f64>,
+}
+
+impl PluginTimes {
+    fn push(&mut self, wall: f64, cpu: f64) {
+        self.wall.push(wall);
+        self.cpu.push(cpu);
+    }
+
+    fn line(&mut self) -> String {
+        let show = |v: &mut Vec<f64>| match spread(v) {
+            Some((mean, p99, max)) => {
+                format!("mean {mean:.3} ms, p99 {p99:.3} ms, max {max:.3} ms")
+            }
+            None => "no frames".into(),
+        };
+        format!(
+            "by the clock {}; processor time {}",
+            show(&mut self.wall),
+            show(&mut self.cpu)
+        )
+    }
+}
+
+/// [`frame_navmesh`] with `chunk_threads` chunk workers (0: one per core).
+fn navmesh_walk(c: &mut Criterion, name: &str, chunk_threads: usize) {
     use bevy_kdcontour::{NavAnchor, NavStats, VolumeNavMesh};
-    let mut app = demo_app();
+    let mut app = demo_app(chunk_threads);
     app.insert_resource(bevy_kdcontour::ColliderSettings {
         enabled: false,
         ..Default::default()
@@ -468,8 +513,12 @@ fn frame_navmesh(c: &mut Criterion) {
     );
     let settled = app.world().resource::<NavStats>().clone();
     println!(
-        "frame_navmesh: {} tiles, {} polygons, {} links after the first view; {} tile builds \
-         of {:.1} ms mean, {:.1} ms max, {} on the main thread",
+        "{name}: {} chunk workers; {} tiles, {} polygons, {} links after the first view; {} \
+         tile builds of {:.1} ms mean, {:.1} ms max, {} on the main thread",
+        match chunk_threads {
+            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+            n => n,
+        },
         settled.tiles,
         settled.polygons,
         settled.links,
@@ -478,10 +527,10 @@ fn frame_navmesh(c: &mut Criterion) {
         settled.build_ms_max,
         settled.built_on_main_thread,
     );
-    let mut frames: Vec<f64> = Vec::new();
+    let mut plugin = PluginTimes::default();
+    let mut own = PluginTimes::default();
     let mut cpu: Vec<f64> = Vec::new();
     let mut queries: Vec<f64> = Vec::new();
-    let mut own: Vec<f64> = Vec::new();
     let (mut found, mut missed) = (0, 0);
     let mut walk = NavWalk {
         frame: 0,
@@ -491,7 +540,7 @@ fn frame_navmesh(c: &mut Criterion) {
         field: field.clone(),
         volume,
     };
-    let mut g = c.benchmark_group("frame_navmesh");
+    let mut g = c.benchmark_group(name);
     g.sample_size(10).measurement_time(Duration::from_secs(15));
     g.bench_function("agents_walking_and_digging", |b| {
         b.iter_custom(|n| {
@@ -503,8 +552,10 @@ fn frame_navmesh(c: &mut Criterion) {
                 app.update();
                 cpu.push(thread_cpu_ms() - c0);
                 total += t0.elapsed();
-                frames.push(app.world().resource::<KdContourStats>().main_thread_ms);
-                own.push(app.world().resource::<NavStats>().main_thread_ms);
+                let stats = app.world().resource::<KdContourStats>();
+                plugin.push(stats.main_thread_ms, stats.main_thread_cpu_ms);
+                let nav = app.world().resource::<NavStats>();
+                own.push(nav.main_thread_ms, nav.main_thread_cpu_ms);
                 if walk.frame.is_multiple_of(30) {
                     let at = |e: Entity| app.world().get::<Transform>(e).unwrap().translation;
                     // Two agents that do not dig (the first digs itself into
@@ -517,7 +568,7 @@ fn frame_navmesh(c: &mut Criterion) {
                         Err(e) => {
                             missed += 1;
                             if missed <= 3 {
-                                println!("frame_navmesh: no path from {a} to {b}: {e}");
+                                println!("{name}: no path from {a} to {b}: {e}");
                             }
                         }
                     }
@@ -534,50 +585,48 @@ fn frame_navmesh(c: &mut Criterion) {
     app.world_mut()
         .resource_mut::<bevy_kdcontour::NavmeshSettings>()
         .enabled = false;
-    let mut off: Vec<f64> = Vec::new();
+    let mut off = PluginTimes::default();
     let mut off_cpu: Vec<f64> = Vec::new();
-    for _ in 0..frames.len() {
+    for _ in 0..plugin.wall.len() {
         walk.advance(&mut app);
         let t0 = std::time::Instant::now();
         let c0 = thread_cpu_ms();
         app.update();
         off_cpu.push(thread_cpu_ms() - c0);
-        off.push(app.world().resource::<KdContourStats>().main_thread_ms);
+        let stats = app.world().resource::<KdContourStats>();
+        off.push(stats.main_thread_ms, stats.main_thread_cpu_ms);
         std::thread::sleep(Duration::from_micros(16_667).saturating_sub(t0.elapsed()));
     }
-    if let (Some((mean, p99, max)), Some((c_mean, c_p99, c_max))) =
-        (spread(&mut off), spread(&mut off_cpu))
-    {
+    let frames = plugin.wall.len();
+    if let Some((c_mean, c_p99, c_max)) = spread(&mut off_cpu) {
         println!(
-            "frame_navmesh, tiles off (baseline): plugin main thread per frame over {} frames: \
-             mean {mean:.3} ms, p99 {p99:.3} ms, max {max:.3} ms; whole app update, main \
-             thread processor time: mean {c_mean:.3} ms, p99 {c_p99:.3} ms, max {c_max:.3} ms",
-            off.len()
+            "{name}, tiles off (baseline): plugin main thread per frame over {frames} frames: \
+             {}; whole app update, main thread processor time: mean {c_mean:.3} ms, p99 \
+             {c_p99:.3} ms, max {c_max:.3} ms",
+            off.line()
         );
     }
-    let (Some((mean, p99, max)), Some((c_mean, c_p99, c_max)), Some((q_mean, q_p99, q_max))) =
-        (spread(&mut frames), spread(&mut cpu), spread(&mut queries))
+    let (Some((c_mean, c_p99, c_max)), Some((q_mean, q_p99, q_max))) =
+        (spread(&mut cpu), spread(&mut queries))
     else {
         return;
     };
     println!(
-        "frame_navmesh: plugin main thread per frame over {} frames: mean {mean:.3} ms, p99 \
-         {p99:.3} ms, max {max:.3} ms; whole app update, main thread processor time: mean \
-         {c_mean:.3} ms, p99 {c_p99:.3} ms, max {c_max:.3} ms",
-        frames.len()
+        "{name}: plugin main thread per frame over {frames} frames: {}; whole app update, main \
+         thread processor time: mean {c_mean:.3} ms, p99 {c_p99:.3} ms, max {c_max:.3} ms",
+        plugin.line()
     );
-    if let Some((mean, p99, max)) = spread(&mut own) {
-        println!(
-            "frame_navmesh: the navmesh subsystem's own main-thread time per frame (its \
-             systems and linking tiles in): mean {mean:.3} ms, p99 {p99:.3} ms, max {max:.3} ms"
-        );
-    }
+    println!(
+        "{name}: the navmesh subsystem's own main-thread time per frame (its systems and \
+         linking tiles in): {}",
+        own.line()
+    );
     let built = end.tiles_built - settled.tiles_built;
     println!(
-        "frame_navmesh: {built} tiles built while walking ({} on the main thread, {} failed; \
-         {:.1} ms each in the tasks), {} tiles at the end; linking on the main thread: {:.3} ms \
-         a tile, {:.3} ms the slowest; path between two agents: {found} found, {missed} not, \
-         query mean {q_mean:.3} ms, p99 {q_p99:.3} ms, max {q_max:.3} ms",
+        "{name}: {built} tiles built while walking ({} on the main thread, {} failed; {:.1} ms \
+         each in the tasks), {} tiles at the end; linking on the main thread (processor time): \
+         {:.3} ms a tile, {:.3} ms the slowest; path between two agents: {found} found, \
+         {missed} not, query mean {q_mean:.3} ms, p99 {q_p99:.3} ms, max {q_max:.3} ms",
         end.built_on_main_thread,
         end.failures,
         (end.build_ms - settled.build_ms) / built.max(1) as f64,

@@ -255,7 +255,10 @@ fn draw_panel(
                     ui.end_row();
                 }
                 ui.label("plugin, main thread");
-                ui.label(format!("{:.2} ms", stats.main_thread_ms));
+                ui.label(format!(
+                    "{:.2} ms ({:.2} ms processor)",
+                    stats.main_thread_ms, stats.main_thread_cpu_ms
+                ));
                 ui.end_row();
                 ui.label("chunks");
                 ui.label(format!("{} meshed / {}", stats.meshed_chunks, stats.chunks));

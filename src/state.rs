@@ -106,6 +106,10 @@ pub struct VolumeState {
     /// What [`VolumeState::want_near`] last marked from, per kind: with the
     /// same anchors (to a unit), settings and chunks, nothing changes.
     wanted_for: [Option<WantedFor>; EXTRA_KINDS],
+    /// The owners of the seams touching each chunk asked about, for the
+    /// chunks (fingerprint) they were found among: looking them up is most of
+    /// [`VolumeState::want_near`]'s time, and anchors move every frame.
+    owners_touching: (Option<(usize, u64)>, ChunkMap<Vec<ChunkKey>>),
 }
 
 /// The inputs of one [`VolumeState::want_near`]: anchors to the unit, the
@@ -132,6 +136,7 @@ impl VolumeState {
             horizon: HorizonState::default(),
             extras: Default::default(),
             wanted_for: Default::default(),
+            owners_touching: Default::default(),
         }
     }
 
@@ -331,6 +336,9 @@ impl VolumeState {
         if self.wanted_for[i].as_ref() == Some(&inputs) {
             return;
         }
+        if self.owners_touching.0 != Some(inputs.chunks) {
+            self.owners_touching = (Some(inputs.chunks), ChunkMap::default());
+        }
         // Marks on the slots rather than a set of keys: the near chunks' seam
         // owners are looked up once each, and nothing is hashed twice.
         for slot in self.slots.values_mut() {
@@ -344,8 +352,13 @@ impl VolumeState {
                 .copied()
                 .collect();
             for k in near {
-                for o in self.world.seam_owners_touching(&k) {
-                    if let Some(slot) = self.slots.get_mut(&o) {
+                let owners = self
+                    .owners_touching
+                    .1
+                    .entry(k)
+                    .or_insert_with(|| self.world.seam_owners_touching(&k));
+                for o in owners.iter() {
+                    if let Some(slot) = self.slots.get_mut(o) {
                         slot.wants[i] = true;
                     }
                 }

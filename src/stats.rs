@@ -32,8 +32,14 @@ pub struct KdContourStats {
     /// Mean time of one chunk extraction (interior + owned seams), ms.
     pub extract_ms: f64,
     /// Main-thread time of the plugin's systems in the last frame, ms (mesh
-    /// upload included).
+    /// upload included), by the clock on the wall: what the frame waited for
+    /// them, including any time their threads waited for a core.
     pub main_thread_ms: f64,
+    /// The processor time those systems used in the last frame, ms: their
+    /// own work, without the waits for a core that
+    /// [`KdContourStats::main_thread_ms`] includes (Linux; elsewhere the
+    /// same as it).
+    pub main_thread_cpu_ms: f64,
     /// Smallest and largest chunk threshold in use.
     pub threshold_range: (f32, f32),
 }
@@ -61,11 +67,36 @@ fn ema(avg: &mut f64, x: f64, n: u64) {
 /// The main-thread time the plugin's systems spent this frame. Every system
 /// starts with `let _time = clock.measure();`: the guard adds the system's
 /// time when it drops, early returns included, and systems that only read the
-/// clock can still run in parallel. [`StatsPlugin`] publishes the sum as
-/// [`KdContourStats::main_thread_ms`] at the end of the frame and starts over.
+/// clock can still run in parallel. [`StatsPlugin`] publishes the sums as
+/// [`KdContourStats::main_thread_ms`] (wall clock) and
+/// [`KdContourStats::main_thread_cpu_ms`] (the threads' processor time) at the
+/// end of the frame and starts over.
+///
+/// The two differ when a system's thread waits for a core: with every core
+/// busy meshing, the kernel may give a chunk worker the rest of its time
+/// slice before a frame thread it has just preempted (up to a scheduler tick,
+/// 4 ms at 250 Hz, in spite of the workers' lower priority).
 #[derive(Resource, Default, Debug)]
 pub struct MainThreadClock {
     nanos: AtomicU64,
+    cpu_nanos: AtomicU64,
+}
+
+/// The calling thread's processor time so far, ns (Linux; `None` elsewhere).
+pub(crate) fn thread_cpu_ns() -> Option<u64> {
+    #[cfg(target_os = "linux")]
+    {
+        let mut t = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: `clock_gettime` writes the timespec it is given and reads
+        // nothing else.
+        let ok = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) } == 0;
+        ok.then(|| t.tv_sec as u64 * 1_000_000_000 + t.tv_nsec as u64)
+    }
+    #[cfg(not(target_os = "linux"))]
+    None
 }
 
 impl MainThreadClock {
@@ -74,20 +105,27 @@ impl MainThreadClock {
         Measure {
             clock: self,
             start: Instant::now(),
+            cpu_start: thread_cpu_ns(),
         }
     }
 
     /// Adds time measured elsewhere (a command the plugin queued, which runs
-    /// after its system's guard has dropped).
-    #[cfg_attr(not(feature = "navmesh"), allow(dead_code))]
-    pub(crate) fn add(&self, time: std::time::Duration) {
-        let ns = time.as_nanos().min(u64::MAX as u128) as u64;
+    /// after its system's guard has dropped): `wall` on the clock, `cpu` (when
+    /// known) as processor time.
+    pub(crate) fn add(&self, wall: std::time::Duration, cpu: Option<u64>) {
+        let ns = wall.as_nanos().min(u64::MAX as u128) as u64;
         self.nanos.fetch_add(ns, Ordering::Relaxed);
+        self.cpu_nanos
+            .fetch_add(cpu.unwrap_or(ns), Ordering::Relaxed);
     }
 
-    /// The time summed since the last call, in ms, and a fresh start.
-    pub(crate) fn take_ms(&self) -> f64 {
-        self.nanos.swap(0, Ordering::Relaxed) as f64 * 1e-6
+    /// The wall and processor times summed since the last call, in ms, and a
+    /// fresh start.
+    pub(crate) fn take_ms(&self) -> (f64, f64) {
+        (
+            self.nanos.swap(0, Ordering::Relaxed) as f64 * 1e-6,
+            self.cpu_nanos.swap(0, Ordering::Relaxed) as f64 * 1e-6,
+        )
     }
 }
 
@@ -95,12 +133,16 @@ impl MainThreadClock {
 pub struct Measure<'a> {
     clock: &'a MainThreadClock,
     start: Instant,
+    cpu_start: Option<u64>,
 }
 
 impl Drop for Measure<'_> {
     fn drop(&mut self) {
-        let ns = self.start.elapsed().as_nanos().min(u64::MAX as u128) as u64;
-        self.clock.nanos.fetch_add(ns, Ordering::Relaxed);
+        let cpu = self
+            .cpu_start
+            .zip(thread_cpu_ns())
+            .map(|(a, b)| b.saturating_sub(a));
+        self.clock.add(self.start.elapsed(), cpu);
     }
 }
 
@@ -147,5 +189,5 @@ fn gather_stats(
     stats.queued = queued;
     stats.threshold_range = if meshed > 0 { range } else { (0.0, 0.0) };
     drop(time);
-    stats.main_thread_ms = clock.take_ms();
+    (stats.main_thread_ms, stats.main_thread_cpu_ms) = clock.take_ms();
 }

@@ -138,9 +138,11 @@ pub struct NavStats {
     /// The slowest tile build, in milliseconds.
     pub build_ms_max: f64,
     /// Milliseconds spent on the main thread linking tiles in (or taking them
-    /// out), in all.
+    /// out), in all: processor time where it is known (Linux), else the
+    /// clock's.
     pub link_ms: f64,
-    /// The slowest linking of one tile, in milliseconds.
+    /// The slowest linking of one tile, in milliseconds (as
+    /// [`NavStats::link_ms`]).
     pub link_ms_max: f64,
     /// Tiles held now, over all volumes.
     pub tiles: usize,
@@ -154,6 +156,9 @@ pub struct NavStats {
     /// (its systems and the linking of tiles; part of
     /// [`crate::KdContourStats::main_thread_ms`]).
     pub main_thread_ms: f64,
+    /// The processor time of the same, ms (part of
+    /// [`crate::KdContourStats::main_thread_cpu_ms`]).
+    pub main_thread_cpu_ms: f64,
 }
 
 /// The navmesh subsystem's own share of the plugin's main-thread clock.
@@ -162,7 +167,7 @@ struct NavClock(MainThreadClock);
 
 /// Publishes the frame's navmesh main-thread time ([`NavStats::main_thread_ms`]).
 fn publish_time(clock: Res<NavClock>, mut stats: ResMut<NavStats>) {
-    stats.main_thread_ms = clock.0.take_ms();
+    (stats.main_thread_ms, stats.main_thread_cpu_ms) = clock.0.take_ms();
 }
 
 /// A volume's navmesh: the tiles of its chunks, linked (added to every volume
@@ -238,18 +243,21 @@ impl MeshExtra for TileExtra {
 /// out), in the frame its mesh is shown; its main-thread time counts on the
 /// plugin's clock.
 fn put_tile(mut chunk: EntityWorldMut, built: Built) {
-    let start = Instant::now();
+    let (start, cpu_start) = (Instant::now(), crate::stats::thread_cpu_ns());
     link_tile(&mut chunk, built);
+    let cpu = cpu_start
+        .zip(crate::stats::thread_cpu_ns())
+        .map(|(a, b)| b.saturating_sub(a));
     let took = start.elapsed();
     chunk.world_scope(|world| {
         if let Some(clock) = world.get_resource::<MainThreadClock>() {
-            clock.add(took);
+            clock.add(took, cpu);
         }
         if let Some(clock) = world.get_resource::<NavClock>() {
-            clock.0.add(took);
+            clock.0.add(took, cpu);
         }
         if let Some(mut stats) = world.get_resource_mut::<NavStats>() {
-            let ms = took.as_secs_f64() * 1e3;
+            let ms = cpu.map_or(took.as_secs_f64() * 1e3, |ns| ns as f64 * 1e-6);
             stats.link_ms += ms;
             stats.link_ms_max = stats.link_ms_max.max(ms);
         }

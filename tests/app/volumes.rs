@@ -461,4 +461,12 @@ fn main_thread_time_and_counts_are_published_every_frame() {
     assert_eq!((stats.tasks_in_flight, stats.queued), (0, 0));
     assert!(stats.builds >= 27 && stats.meshed_chunks > 0, "{stats:?}");
     assert!(stats.main_thread_ms > 0.0 && stats.main_thread_ms < 1000.0);
+    // The processor time is part of the clock's (a thread cannot use more
+    // than the time that passed), and known on Linux.
+    assert!(
+        stats.main_thread_cpu_ms <= stats.main_thread_ms + 1e-3,
+        "{stats:?}"
+    );
+    #[cfg(target_os = "linux")]
+    assert!(stats.main_thread_cpu_ms > 0.0, "{stats:?}");
 }
