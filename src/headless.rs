@@ -24,7 +24,7 @@ impl PluginGroup for HeadlessPlugins {
 }
 
 /// Updates `app` until `volume` has no meshing work queued, running or waiting
-/// for upload, and is still settled after one more update (so the last
+/// for upload (nor navmesh tiles waiting to be linked in), and is still settled after one more update (so the last
 /// uploads' commands have applied and that update started nothing new, such as
 /// a horizon volume's next level change); at most `max_frames` updates,
 /// sleeping `pause` between them (tasks run on other threads). Returns whether
@@ -36,7 +36,16 @@ pub fn run_until_settled(
     pause: std::time::Duration,
 ) -> bool {
     let settled = |app: &App| {
-        app.world()
+        let world = app.world();
+        // Navmesh tiles waiting to be linked in are work left too.
+        #[cfg(feature = "navmesh")]
+        if world
+            .get::<crate::VolumeNavMesh>(volume)
+            .is_some_and(|n| n.waiting() > 0)
+        {
+            return false;
+        }
+        world
             .get::<VolumeState>(volume)
             .is_some_and(|s| s.is_settled())
     };

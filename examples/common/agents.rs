@@ -6,7 +6,7 @@
 //! ground).
 
 use bevy::prelude::*;
-use bevy_kdcontour::{NavAnchor, NavStats, NavmeshSettings, VolumeNavMesh};
+use bevy_kdcontour::{NavAnchor, NavmeshSettings, VolumeNavMesh};
 
 /// Walking speed (units a second).
 const SPEED: f32 = 4.0;
@@ -32,8 +32,8 @@ pub struct Agents {
     pub goal: Option<Vec3>,
     /// Plan again this frame (a new goal).
     replan: bool,
-    /// [`NavStats::tiles_built`] at the last plan: a change plans again.
-    planned_at: u64,
+    /// [`VolumeNavMesh::version`] at the last plan: a change plans again.
+    planned_at: Option<u64>,
     /// What the last plan said (paths found, or why one was not).
     pub status: String,
     /// Frames since every agent last had a path (for the screenshot's gate).
@@ -115,24 +115,23 @@ pub fn place_or_send(
 }
 
 /// Plans every agent's path to the goal: when it is set, and again whenever
-/// navmesh tiles were rebuilt (the ground changed, or tiles arrived).
+/// the navmesh changed (the ground changed, or tiles arrived).
 fn plan(
     mut agents: ResMut<Agents>,
-    stats: Res<NavStats>,
     volumes: Query<(&GlobalTransform, &VolumeNavMesh)>,
     mut walkers: Query<(&Transform, &mut Agent)>,
 ) {
     let (Some(goal), Some(volume)) = (agents.goal, agents.volume) else {
         return;
     };
-    if !agents.replan && stats.tiles_built == agents.planned_at {
-        return;
-    }
     let Ok((vol_tf, nav)) = volumes.get(volume) else {
         return;
     };
+    if !agents.replan && agents.planned_at == Some(nav.version()) {
+        return;
+    }
     agents.replan = false;
-    agents.planned_at = stats.tiles_built;
+    agents.planned_at = Some(nav.version());
     let (mut found, mut why) = (0, None);
     for (tf, mut agent) in &mut walkers {
         let feet = tf.translation - Vec3::Y * CENTRE;

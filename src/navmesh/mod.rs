@@ -12,6 +12,13 @@
 //! - **Never stale.** Mesh and tile travel together and land in the same frame;
 //!   an edit's re-extraction replaces both, so only the tiles of the chunks an
 //!   edit re-meshes are rebuilt ([`NavStats::tiles_built`]).
+//! - **Linked within a budget.** Linking a tile to its neighbours is the main
+//!   thread's part (about 0.01 ms for a level-0 chunk's tile, 0.2 to 0.4 ms for
+//!   a coarser one). Tiles are linked in the order they land until
+//!   [`NavmeshSettings::link_budget_ms`] is spent in a frame (at least one a
+//!   frame); the rest wait for the next frames ([`VolumeNavMesh::waiting`]),
+//!   the chunk's old tile kept meanwhile. An edit's few tiles are linked in
+//!   the frame they land; a level change's dozens over a few frames.
 //! - **Where they are needed.** Chunks near the camera or an anchor (and the
 //!   chunks that own seams touching them) carry a tile, cut at no coarser than
 //!   [`NavmeshSettings::threshold`]; a chunk that leaves the distance is
@@ -34,6 +41,7 @@ use bevy::prelude::*;
 use kdcontour::world::ChunkKey;
 use kdcontour::IndexedMesh;
 pub use kdcontour_nav::{NavMesh, NavSettings, NavTile, Path, PathError};
+use std::collections::VecDeque;
 use std::sync::Arc;
 use std::thread::ThreadId;
 use std::time::Instant;
@@ -54,7 +62,9 @@ impl Plugin for NavmeshPlugin {
                 PostUpdate,
                 (
                     want_tiles.in_set(KdContourStep::ChooseChunks),
-                    drop_stale_tiles.in_set(KdContourStep::AfterUpload),
+                    (drop_stale_tiles, link_waiting)
+                        .chain()
+                        .in_set(KdContourStep::AfterUpload),
                     publish_time.in_set(KdContourSystems::Stats),
                 ),
             );
@@ -83,6 +93,10 @@ pub struct NavmeshSettings {
     pub max_climb: f32,
     /// Recast's cell on the ground plane (smaller: closer to walls, slower).
     pub cell_size: f32,
+    /// Main-thread time for linking tiles in, per frame, in milliseconds: once
+    /// it is spent, the tiles left wait for the next frame (at least one is
+    /// linked every frame).
+    pub link_budget_ms: f32,
 }
 
 impl Default for NavmeshSettings {
@@ -97,6 +111,7 @@ impl Default for NavmeshSettings {
             max_slope_degrees: agent.max_slope_degrees,
             max_climb: agent.max_climb,
             cell_size: agent.cell_size,
+            link_budget_ms: 0.3,
         }
     }
 }
@@ -125,7 +140,7 @@ pub struct NavAnchor;
 #[derive(Resource, Clone, Debug, Default, Reflect)]
 #[reflect(Resource)]
 pub struct NavStats {
-    /// Tiles built (in meshing tasks) and linked in.
+    /// Tiles built (in meshing tasks) and handed to their navmesh.
     pub tiles_built: u64,
     /// Tiles taken out (a chunk without floor, out of reach or dropped).
     pub tiles_removed: u64,
@@ -146,6 +161,9 @@ pub struct NavStats {
     pub link_ms_max: f64,
     /// Tiles held now, over all volumes.
     pub tiles: usize,
+    /// Tiles built and waiting to be linked in (the frame's linking budget
+    /// was spent), over all volumes.
+    pub waiting: usize,
     /// Their polygons.
     pub polygons: usize,
     /// Links between tiles.
@@ -177,9 +195,38 @@ pub struct VolumeNavMesh {
     navmesh: NavMesh,
     /// The settings it was built for; a tile built for others is dropped.
     generation: u64,
+    /// Tiles built and waiting to be linked in, oldest first, at most one a
+    /// chunk (a newer one replaces it).
+    waiting: VecDeque<(ChunkKey, Arc<NavTile>)>,
+    /// Counts the tiles linked in and taken out.
+    version: u64,
 }
 
 impl VolumeNavMesh {
+    /// Tiles built and waiting to be linked in: the chunk's old tile (or none)
+    /// answers paths until then.
+    pub fn waiting(&self) -> usize {
+        self.waiting.len()
+    }
+
+    /// A number that changes whenever a tile is linked in or taken out: paths
+    /// planned at another may be out of date.
+    pub fn version(&self) -> u64 {
+        self.version
+    }
+
+    /// Takes chunk `key`'s tile out of the navmesh; whether it had one.
+    fn remove(&mut self, key: &ChunkKey) -> bool {
+        let had = self.navmesh.remove(key);
+        self.version += had as u64;
+        had
+    }
+
+    /// Takes chunk `key`'s waiting tile out, if it has one.
+    fn unqueue(&mut self, key: &ChunkKey) {
+        self.waiting.retain(|(k, _)| k != key);
+    }
+
     /// The tiles and their links.
     pub fn navmesh(&self) -> &NavMesh {
         &self.navmesh
@@ -239,9 +286,9 @@ impl MeshExtra for TileExtra {
     }
 }
 
-/// Links a built tile into its volume's navmesh (or takes the chunk's old one
-/// out), in the frame its mesh is shown; its main-thread time counts on the
-/// plugin's clock.
+/// Queues a built tile for linking into its volume's navmesh (or takes the
+/// chunk's old one out), in the frame its mesh is shown; its main-thread time
+/// counts on the plugin's clock.
 fn put_tile(mut chunk: EntityWorldMut, built: Built) {
     let (start, cpu_start) = (Instant::now(), crate::stats::thread_cpu_ns());
     link_tile(&mut chunk, built);
@@ -257,9 +304,7 @@ fn put_tile(mut chunk: EntityWorldMut, built: Built) {
             clock.0.add(took, cpu);
         }
         if let Some(mut stats) = world.get_resource_mut::<NavStats>() {
-            let ms = cpu.map_or(took.as_secs_f64() * 1e3, |ns| ns as f64 * 1e-6);
-            stats.link_ms += ms;
-            stats.link_ms_max = stats.link_ms_max.max(ms);
+            stats.link_ms += cpu.map_or(took.as_secs_f64() * 1e3, |ns| ns as f64 * 1e-6);
         }
     });
 }
@@ -280,16 +325,18 @@ fn link_tile(chunk: &mut EntityWorldMut, built: Built) {
         }
         let (mut built_n, mut removed, mut failed) = (0, 0, None);
         let ran = built.tile.is_some();
+        // A newer tile (or none) replaces one still waiting.
+        nav.unqueue(&key);
         match built.tile {
             Some(Ok(tile)) if !tile.is_empty() => {
-                nav.navmesh.insert(key, Arc::new(tile));
+                nav.waiting.push_back((key, Arc::new(tile)));
                 built_n = 1;
             }
             Some(Err(e)) => {
-                removed = nav.navmesh.remove(&key) as u64;
+                removed = nav.remove(&key) as u64;
                 failed = Some(format!("chunk {:?} (level {}): {e}", key.coord, key.level));
             }
-            _ => removed = nav.navmesh.remove(&key) as u64,
+            _ => removed = nav.remove(&key) as u64,
         }
         let mut stats = world.resource_mut::<NavStats>();
         stats.tiles_built += built_n;
@@ -363,6 +410,8 @@ fn want_tiles(
             commands.entity(entity).insert(VolumeNavMesh {
                 navmesh,
                 generation: *generation,
+                waiting: VecDeque::new(),
+                version: 0,
             });
             state.set_extra(
                 ExtraKind::NavTile,
@@ -382,8 +431,52 @@ fn want_tiles(
     }
 }
 
+/// Links waiting tiles in, oldest first, until the frame's
+/// [`NavmeshSettings::link_budget_ms`] is spent (at least one a frame), and
+/// totals the tiles for [`NavStats`].
+fn link_waiting(
+    settings: Res<NavmeshSettings>,
+    clock: Res<MainThreadClock>,
+    nav_clock: Res<NavClock>,
+    mut stats: ResMut<NavStats>,
+    mut volumes: Query<&mut VolumeNavMesh>,
+) {
+    let (_time, _nav_time) = (clock.measure(), nav_clock.0.measure());
+    let start = Instant::now();
+    let budget = std::time::Duration::from_secs_f32(settings.link_budget_ms.max(0.0) / 1e3);
+    let mut linked = 0;
+    for mut nav in &mut volumes {
+        while !nav.waiting.is_empty() && (linked == 0 || start.elapsed() < budget) {
+            let one = (Instant::now(), crate::stats::thread_cpu_ns());
+            let nav = &mut *nav;
+            let (key, tile) = nav.waiting.pop_front().expect("not empty");
+            nav.navmesh.insert(key, tile);
+            nav.version += 1;
+            linked += 1;
+            let cpu = one
+                .1
+                .zip(crate::stats::thread_cpu_ns())
+                .map(|(a, b)| b.saturating_sub(a));
+            let ms = cpu.map_or(one.0.elapsed().as_secs_f64() * 1e3, |ns| ns as f64 * 1e-6);
+            stats.link_ms += ms;
+            stats.link_ms_max = stats.link_ms_max.max(ms);
+        }
+    }
+    let (mut tiles, mut polygons, mut links, mut waiting) = (0, 0, 0, 0);
+    for nav in &volumes {
+        tiles += nav.navmesh.len();
+        polygons += nav.navmesh.polygon_count();
+        links += nav.navmesh.link_count();
+        waiting += nav.waiting.len();
+    }
+    let totals = (tiles, polygons, links, waiting);
+    if (stats.tiles, stats.polygons, stats.links, stats.waiting) != totals {
+        (stats.tiles, stats.polygons, stats.links, stats.waiting) = totals;
+    }
+}
+
 /// Takes the tiles of chunks no longer loaded (streamed out, replaced by a
-/// level change) out of their navmesh, and totals the tiles for [`NavStats`].
+/// level change) out of their navmesh, and out of its queue.
 fn drop_stale_tiles(
     clock: Res<MainThreadClock>,
     nav_clock: Res<NavClock>,
@@ -391,8 +484,14 @@ fn drop_stale_tiles(
     mut volumes: Query<(&VolumeState, &mut VolumeNavMesh)>,
 ) {
     let (_time, _nav_time) = (clock.measure(), nav_clock.0.measure());
-    let (mut tiles, mut polygons, mut links) = (0, 0, 0);
     for (state, mut nav) in &mut volumes {
+        if nav
+            .waiting
+            .iter()
+            .any(|(k, _)| !state.slots.contains_key(k))
+        {
+            nav.waiting.retain(|(k, _)| state.slots.contains_key(k));
+        }
         let gone: Vec<ChunkKey> = nav
             .navmesh
             .keys()
@@ -401,15 +500,9 @@ fn drop_stale_tiles(
             .collect();
         if !gone.is_empty() {
             for k in &gone {
-                nav.navmesh.remove(k);
+                nav.remove(k);
             }
             stats.tiles_removed += gone.len() as u64;
         }
-        tiles += nav.navmesh.len();
-        polygons += nav.navmesh.polygon_count();
-        links += nav.navmesh.link_count();
-    }
-    if (stats.tiles, stats.polygons, stats.links) != (tiles, polygons, links) {
-        (stats.tiles, stats.polygons, stats.links) = (tiles, polygons, links);
     }
 }

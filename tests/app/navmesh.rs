@@ -1,8 +1,9 @@
 //! Navmesh (feature `navmesh`), headless: tiles are built in the meshing
 //! tasks (never on the main thread) for the chunks near anchors; a path goes
 //! around a pit dug across it once the pit's chunks re-mesh, and only their
-//! tiles are rebuilt; a goal in rock has no path; new agent settings rebuild
-//! every tile, and turning tiles off takes them all away.
+//! tiles are rebuilt; a goal in rock has no path; tiles past a frame's
+//! linking budget are linked in later frames, to the same navmesh; new agent
+//! settings rebuild every tile, and turning tiles off takes them all away.
 
 use crate::common::{app_with, settle};
 use bevy::prelude::*;
@@ -24,9 +25,17 @@ fn on_ground(x: f32, z: f32) -> Vec3 {
 }
 
 /// 6 x 2 x 6 chunks of 16 cells of 1 unit (96 x 32 x 96), anchors at `points`,
-/// the LOD camera far above (beyond the tile distance).
+/// the LOD camera far above (beyond the tile distance), settled.
 fn world(points: &[Vec3]) -> (App, Entity) {
+    let (mut app, volume) = unsettled_world(points, NavmeshSettings::default());
+    settle(&mut app, volume);
+    (app, volume)
+}
+
+/// [`world`] with `settings`, before its first update.
+fn unsettled_world(points: &[Vec3], settings: NavmeshSettings) -> (App, Entity) {
     let mut app = app_with(LodSettings::default());
+    app.insert_resource(settings);
     let field: Arc<dyn kdcontour::Field> =
         Arc::new(kdcontour::field::FnField(|p: Vec3| p.y - height(p.x, p.z)));
     let volume = app
@@ -39,7 +48,6 @@ fn world(points: &[Vec3]) -> (App, Entity) {
         app.world_mut()
             .spawn((NavAnchor, Transform::from_translation(*p)));
     }
-    settle(&mut app, volume);
     (app, volume)
 }
 
@@ -166,6 +174,79 @@ fn a_path_goes_around_a_pit_dug_across_it_and_only_the_pits_tiles_are_rebuilt() 
         .iter()
         .zip(&after.points)
         .all(|(m, p)| m.distance(*p + Vec3::X * 100.0) < 1e-3));
+}
+
+#[test]
+fn tiles_past_the_frames_linking_budget_are_linked_in_later_frames_alike() {
+    let points = [
+        on_ground(20.0, 50.0),
+        on_ground(76.0, 50.0),
+        on_ground(48.0, 30.0),
+    ];
+    let (app, volume) = world(&points);
+    let all_at_once = stats(&app);
+    let path = navmesh(&app, volume)
+        .find_path(points[0], points[1])
+        .unwrap();
+    // No budget: one tile linked a frame, the rest wait.
+    let (mut app, volume) = unsettled_world(
+        &points,
+        NavmeshSettings {
+            link_budget_ms: 0.0,
+            ..Default::default()
+        },
+    );
+    // Every chunk meshed at once and shown in one frame, so that many tiles
+    // land together.
+    {
+        let mut settings = app.world_mut().resource_mut::<KdContourSettings>();
+        settings.max_tasks_in_flight = 1000;
+        settings.max_uploads_per_frame = 1000;
+    }
+    let (mut most_waiting, mut frames) = (0, 0);
+    let mut linked = 0;
+    while frames < 5000 {
+        app.update();
+        frames += 1;
+        let now = stats(&app);
+        assert!(
+            now.tiles <= linked + 1,
+            "at most one tile linked a frame: {linked} then {}",
+            now.tiles
+        );
+        linked = now.tiles;
+        most_waiting = most_waiting.max(navmesh(&app, volume).waiting());
+        if now.tiles == all_at_once.tiles && now.waiting == 0 {
+            break;
+        }
+        // The first frames wait for the chunk workers.
+        let pause = if frames <= 4 { 300_000 } else { 200 };
+        std::thread::sleep(std::time::Duration::from_micros(pause));
+    }
+    settle(&mut app, volume);
+    let one_a_frame = stats(&app);
+    assert!(
+        most_waiting >= 5,
+        "tiles waited: at most {most_waiting} at once"
+    );
+    assert_eq!(
+        (
+            one_a_frame.tiles,
+            one_a_frame.polygons,
+            one_a_frame.links,
+            one_a_frame.waiting
+        ),
+        (
+            all_at_once.tiles,
+            all_at_once.polygons,
+            all_at_once.links,
+            0
+        )
+    );
+    let again = navmesh(&app, volume)
+        .find_path(points[0], points[1])
+        .unwrap();
+    assert_eq!(again.points, path.points);
 }
 
 #[test]

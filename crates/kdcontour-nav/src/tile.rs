@@ -2,7 +2,7 @@
 //! aprons continuing its open edges; the floor of the chunk's own triangles.
 
 use crate::settings::{NavError, NavSettings};
-use glam::{UVec3, Vec3, Vec3A};
+use glam::{UVec3, Vec2, Vec3, Vec3A};
 use kdcontour::IndexedMesh;
 use rerecast::{
     Aabb3d, AreaType, BuildContoursFlags, ContourSet, DetailNavmesh, HeightfieldBuilder,
@@ -10,6 +10,9 @@ use rerecast::{
 };
 use std::collections::HashMap;
 
+/// The side of the cells open edges are bucketed in for linking, in Recast
+/// cells.
+const EDGE_CELLS: f32 = 8.0;
 /// Recast's outline simplification error, in cells (its default).
 const MAX_SIMPLIFICATION_ERROR: f32 = 1.3;
 /// The detail mesh samples heights this many cells apart (Recast's default).
@@ -61,6 +64,8 @@ pub struct NavTile {
     /// floors of other tiles may link): polygon and the edge's ends. Found
     /// once, where the tile is built, so linking it in is quick.
     pub open_edges: Vec<(u32, Vec3, Vec3)>,
+    /// The open edges bucketed on the ground plane, for linking.
+    pub(crate) edge_grid: crate::links::EdgeGrid,
 }
 
 impl NavTile {
@@ -173,6 +178,12 @@ impl NavTile {
             .map_err(|e| recast("detail mesh")(&e))?;
         tile.take_polygons(&poly, &detail);
         tile.open_edges = tile.find_open_edges();
+        tile.edge_grid = crate::links::EdgeGrid::new(
+            &tile.open_edges,
+            Vec2::new(tile.lo.x, tile.lo.z),
+            Vec2::new(tile.hi.x, tile.hi.z),
+            EDGE_CELLS * cs,
+        );
         Ok(tile)
     }
 
