@@ -313,21 +313,28 @@ fn send_requests(
             f.asked = true;
         }
     }
-    // The brush cursor, when it moved, a few times a second.
+    // The brush cursor, a few times a second: when it moved, and once after
+    // joining (a cursor set before the join waits for it).
     let now = time.elapsed_secs_f64();
-    if *cursor != cursor_sent.1 && now >= cursor_sent.0 + CURSOR_PERIOD {
+    if now >= cursor_sent.0 + CURSOR_PERIOD {
+        let moved = *cursor != cursor_sent.1;
         let target = cursor.0.or(cursor_sent.1 .0).map(|c| c.volume);
-        if let Some((net, f)) = target.and_then(|v| volumes.get(v).ok()) {
-            if f.joined {
+        match target.and_then(|v| volumes.get_mut(v).ok()) {
+            Some((net, mut f)) if f.joined && (moved || f.cursor_unsent) => {
                 let at = cursor.0.map(|c| (c.at, c.radius));
                 send(
                     &mut out,
                     &mut stats,
                     &Request::Cursor { volume: net.id, at },
                 );
+                f.cursor_unsent = false;
+                *cursor_sent = (now, cursor.clone());
             }
+            // Not joined yet: sent once it has.
+            Some((_, f)) if !f.joined => {}
+            // Not a shared volume, or nothing new.
+            _ => *cursor_sent = (now, cursor.clone()),
         }
-        *cursor_sent = (now, cursor.clone());
     }
     for (volume, op) in read_ops(&mut edits, &mut undos, &mut redos) {
         let Ok((net, f)) = volumes.get(volume) else {

@@ -244,8 +244,13 @@ fn two_clients_and_the_server_edit_at_once_and_converge() {
     let (mut s, sv, addr) = server(settings);
     let (mut a, av) = client(addr, 1, FINGERPRINT);
     let (mut b, bv) = client(addr, 2, FINGERPRINT);
-    // Client b aims before it has joined: the server hears it once it has.
+    // Client b aims before it has joined: the server hears it once it has
+    // (b runs past its first cursor period before the server answers).
     b.insert_resource(aim(bv, 3.0));
+    for _ in 0..3 {
+        b.update();
+        std::thread::sleep(Duration::from_millis(60));
+    }
     converge(&mut s, sv, &mut [(&mut a, av), (&mut b, bv)]);
     // 300 frames: each client dabs every 3rd frame and undoes now and then,
     // the server (playing too) every 10th.
