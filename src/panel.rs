@@ -106,8 +106,8 @@ fn collider_rows(ui: &mut egui::Ui, c: &mut crate::ColliderSettings) {
 
 /// The navmesh settings: on or off, the agent (radius, height, steepest
 /// slope, climb) and the distance; returns new settings when they changed. A
-/// change rebuilds every tile, so a slider edits a draft and the settings take
-/// it when the drag ends.
+/// new agent rebuilds every tile, so a slider edits a draft and the settings
+/// take it when the drag ends.
 #[cfg(feature = "navmesh")]
 fn navmesh_rows(
     ui: &mut egui::Ui,
@@ -332,7 +332,7 @@ fn draw_panel(
                 if n.is_changed() {
                     *nav_draft = Some(n.clone());
                 }
-                // Written only on a change: a new value rebuilds every tile.
+                // Written only on a change: a new agent rebuilds every tile.
                 if let Some(new) = navmesh_rows(ui, &n, &mut nav_draft, &stats) {
                     *n = new;
                 }

@@ -28,8 +28,9 @@
 //!   funnel, or a [`PathError`] that says why there is none (a goal in rock or
 //!   in the air, floors that do not connect).
 //!
-//! Changing [`NavmeshSettings`] (the agent's radius, height, slope, climb)
-//! rebuilds every tile with the new agent.
+//! Changing the agent in [`NavmeshSettings`] (radius, height, slope, climb,
+//! cell), the threshold or turning tiles on or off rebuilds every tile; the
+//! distance and the linking budget take effect without.
 
 use crate::mesh::{ChunkExtra, ExtraKind, ExtraPayload, MeshExtra};
 use crate::state::VolumeState;
@@ -354,6 +355,10 @@ fn link_tile(chunk: &mut EntityWorldMut, built: Built) {
     });
 }
 
+/// What a volume's tiles are built for: the agent, whether tiles are on, and
+/// the threshold their chunks are cut at.
+type BuiltFor = (NavSettings, bool, f32);
+
 /// Where tiles are wanted from: the LOD camera and every anchor.
 type Anchors<'w, 's> =
     Query<'w, 's, &'static GlobalTransform, Or<(With<LodCamera>, With<NavAnchor>)>>;
@@ -382,15 +387,19 @@ fn want_tiles(
     clock: Res<MainThreadClock>,
     nav_clock: Res<NavClock>,
     mut stats: ResMut<NavStats>,
-    mut generation: Local<u64>,
+    mut generation: Local<(u64, Option<BuiltFor>)>,
     anchors: Anchors,
     mut volumes: Volumes,
 ) {
     let (_time, _nav_time) = (clock.measure(), nav_clock.0.measure());
     let agent = settings.agent();
     let valid = agent.check();
-    if settings.is_changed() {
-        *generation += 1;
+    // What the tiles are built for: a change rebuilds them all (the distance
+    // and the linking budget do not).
+    let built_for = Some((agent.clone(), settings.enabled, settings.threshold));
+    if generation.1 != built_for {
+        generation.1 = built_for;
+        generation.0 += 1;
         if let Err(e) = &valid {
             warn!("{e}: no navmesh tiles until the settings are fixed");
             stats.last_error = Some(e.to_string());
@@ -399,7 +408,7 @@ fn want_tiles(
     let enabled = settings.enabled && valid.is_ok();
     for (entity, vol_tf, mut state, nav) in &mut volumes {
         let state = &mut *state;
-        if nav.is_none_or(|n| n.generation != *generation) {
+        if nav.is_none_or(|n| n.generation != generation.0) {
             // A new volume or new settings: an empty navmesh, every tile again.
             let navmesh = NavMesh::new(if valid.is_ok() {
                 agent.clone()
@@ -409,7 +418,7 @@ fn want_tiles(
             .expect("checked settings");
             commands.entity(entity).insert(VolumeNavMesh {
                 navmesh,
-                generation: *generation,
+                generation: generation.0,
                 waiting: VecDeque::new(),
                 version: 0,
             });
@@ -418,7 +427,7 @@ fn want_tiles(
                 Some(ChunkExtra {
                     builder: Arc::new(TileExtra {
                         agent: agent.clone(),
-                        generation: *generation,
+                        generation: generation.0,
                     }),
                     on: enabled.then_some(settings.threshold),
                 }),
