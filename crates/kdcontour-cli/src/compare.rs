@@ -28,30 +28,37 @@ pub fn run(mut args: Compare) -> Result<(), String> {
         json,
         ..
     } = args.run;
+    let progress = crate::progress::Progress::new(json);
+    progress.stage(format!("sampling {} cells", grid.cell_count()));
     let sampled = meshers::sample(field, &grid, &settings)
         .map_err(|e| crate::args::build_error(&loaded, e))?;
     if !json {
-        say!("{scene} at res {res}, threshold {threshold} (errors in cells)");
-        say!(
-            "{:<17} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>6} {:>6} {:>6}",
-            "mesher",
-            "triangles",
-            "vertices",
-            "max err",
-            "mean err",
-            "sample",
-            "build",
-            "contour",
-            "closed",
-            "manif",
-            "euler"
-        );
+        progress.suspend(|| say!("{scene} at res {res}, threshold {threshold} (errors in cells)"));
+        progress.suspend(|| {
+            say!(
+                "{:<17} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>6} {:>6} {:>6}",
+                "mesher",
+                "triangles",
+                "vertices",
+                "max err",
+                "mean err",
+                "sample",
+                "build",
+                "contour",
+                "closed",
+                "manif",
+                "euler"
+            )
+        });
     }
     let mut octree_tris = None;
     let mut reports = Vec::new();
-    for mesher in Mesher::ALL {
+    for (i, mesher) in Mesher::ALL.into_iter().enumerate() {
+        let of = format!("{} of {}", i + 1, Mesher::ALL.len());
+        progress.stage(format!("meshing with {} ({of})", mesher.name()));
         let (mesh, t) =
             meshers::run(mesher, &sampled, threshold, &settings).map_err(|e| e.to_string())?;
+        progress.stage(format!("checking {}'s mesh ({of})", mesher.name()));
         let r = validate_with(&mesh, &checks);
         if json {
             say!(
@@ -59,7 +66,7 @@ pub fn run(mut args: Compare) -> Result<(), String> {
                 json_line(mesher.name(), scene, res, threshold, &r, &t)
             );
         } else {
-            say!(
+            progress.suspend(|| say!(
                 "{:<17} {:>10} {:>9} {:>9.4} {:>9.4} {:>7.1}ms {:>7.1}ms {:>7.1}ms {:>6} {:>6} {:>6}",
                 mesher.name(),
                 r.triangles,
@@ -72,22 +79,21 @@ pub fn run(mut args: Compare) -> Result<(), String> {
                 r.watertight,
                 r.manifold,
                 r.euler
-            );
+            ));
         }
         match mesher {
             Mesher::Octree => octree_tris = Some(r.triangles),
             Mesher::KdTree if !json => {
                 if let Some(o) = octree_tris.filter(|&o| o > 0) {
-                    say!(
-                        "k-d / octree triangles: {:.3}",
-                        r.triangles as f64 / o as f64
-                    );
+                    let ratio = r.triangles as f64 / o as f64;
+                    progress.suspend(|| say!("k-d / octree triangles: {ratio:.3}"));
                 }
             }
             _ => {}
         }
         reports.push((mesher.name(), r));
     }
+    progress.finish();
     if !json {
         print_geometry(&reports);
     }

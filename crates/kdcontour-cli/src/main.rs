@@ -1,8 +1,9 @@
 //! `kdcontour`: mesh built-in scenes, scene files, volumes and triangle meshes from
 //! the command line, and compare the meshers side by side.
 //!
-//! One module per subcommand; [`args`] holds the options they share and [`output`]
-//! the JSON line `mesh` and `compare` print. This file only parses and dispatches.
+//! One module per subcommand; [`args`] holds the options they share, [`output`]
+//! the JSON line `mesh` and `compare` print, and [`progress`] the progress line
+//! long commands draw on a terminal. This file only parses and dispatches.
 
 /// `println!` that exits quietly when stdout is closed ([`output::line`]).
 macro_rules! say {
@@ -16,6 +17,7 @@ mod compare;
 mod mesh;
 mod output;
 mod phantom;
+mod progress;
 mod scenes;
 mod world;
 

@@ -3,6 +3,7 @@
 
 use crate::args::{Input, RunArgs};
 use crate::output::{json_line, print_checks};
+use crate::progress::Progress;
 use kdcontour::meshers::{self, Mesher, Timings};
 use kdcontour::validate::validate_with;
 use kdcontour::{Field, Grid, IndexedMesh, KdTree, Partition, Settings};
@@ -53,15 +54,19 @@ pub fn run(args: Mesh) -> Result<(), String> {
         json,
         ..
     } = run;
+    let progress = Progress::new(json);
     let t0 = Instant::now();
-    let (mesh, times, tree) = make(mesher, field, &grid, threshold, &settings)
+    let (mesh, times, tree) = make(mesher, field, &grid, threshold, &settings, &progress)
         .map_err(|e| crate::args::build_error(&loaded, e))?;
     let t1 = Instant::now();
+    progress.stage(format!("checking {} triangles", mesh.triangle_count()));
     let report = validate_with(&mesh, &checks);
     let t2 = Instant::now();
     if let Some(path) = &out {
+        progress.stage(format!("writing {}", path.display()));
         mesh.save(path).map_err(|e| e.to_string())?;
     }
+    progress.finish();
     if json {
         let line = json_line(mesher.name(), scene, res, threshold, &report, &times);
         say!("{line}");
@@ -111,7 +116,12 @@ fn make(
     grid: &Grid,
     threshold: f32,
     settings: &Settings,
+    progress: &Progress,
 ) -> kdcontour::Result<(IndexedMesh, Timings, Option<KdTree>)> {
+    progress.stage(format!(
+        "sampling and building, {} cells",
+        grid.cell_count()
+    ));
     let partition = match mesher {
         Mesher::KdTree => Partition::KdTree,
         Mesher::Octree => Partition::Octree,
@@ -120,6 +130,7 @@ fn make(
         | Mesher::SkeletonClimbing
         | Mesher::DiscretePlanes => {
             let sampled = meshers::sample(field, grid, settings)?;
+            progress.stage(format!("meshing ({})", mesher.name()));
             let (mut mesh, times) = meshers::run(mesher, &sampled, threshold, settings)?;
             settings.run(|| kdcontour::material::attach(&mut mesh, field))?;
             return Ok((mesh, times, None));
@@ -130,6 +141,7 @@ fn make(
         ..settings.clone()
     };
     let tree = KdTree::build(field, grid, &settings)?;
+    progress.stage(format!("contouring {} nodes", tree.node_count()));
     let t = Instant::now();
     let mut mesh = IndexedMesh::default();
     settings.run(|| tree.extract(threshold, &mut mesh))?;

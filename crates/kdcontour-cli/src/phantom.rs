@@ -47,12 +47,16 @@ pub fn run(args: Phantom) -> Result<(), String> {
         .budget
         .check(format!("a phantom of {res}^3 voxels"), voxels * 8 + 352)
         .map_err(|e| e.to_string())?;
+    let progress = crate::progress::Progress::new(false);
+    progress.stage(format!("making a phantom of {res}^3 voxels"));
     let vol = if scanned {
         volume::phantom_scanned(res)
     } else {
         volume::phantom(res)
     };
+    progress.stage(format!("writing {}", out.display()));
     volume::write_nifti(&out, &vol).map_err(|e| e.to_string())?;
+    progress.finish();
     say!(
         "wrote {} ({res}^3 voxels; the skull is at --iso {})",
         out.display(),

@@ -162,6 +162,11 @@ pub fn run(args: World) -> Result<(), String> {
         return Err("world meshes [-1, 1]^3: use --scene or --scene-file".into());
     }
     let settings = settings(args.threads, args.memory.budget);
+    let progress = crate::progress::Progress::new(args.json);
+    let threads = match args.threads {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        n => n,
+    };
     let cell = cell_size(chunks, args.chunk_res);
     let origin = Vec3::splat(-1.0);
     let mut world = match levels {
@@ -185,9 +190,15 @@ pub fn run(args: World) -> Result<(), String> {
             .copied()
             .collect();
         let t = Instant::now();
-        world
-            .build(&mine, &*loaded.field)
-            .map_err(|e| format!("{}: {e}", loaded.name))?;
+        progress.chunks(format!("building level {}", s.level), mine.len() as u64);
+        // In parts as large as the world's own batches (16 a thread), so the
+        // line moves as chunks are done and the builds are the same.
+        for part in mine.chunks(16 * threads) {
+            world
+                .build(part, &*loaded.field)
+                .map_err(|e| format!("{}: {e}", loaded.name))?;
+            progress.done(part.len() as u64);
+        }
         s.build_ms = t.elapsed().as_secs_f64() * 1e3;
         s.chunks = mine.len();
         s.retained_bytes = mine
@@ -210,8 +221,10 @@ pub fn run(args: World) -> Result<(), String> {
         Thresholds::Default => {}
     }
     let t = Instant::now();
+    progress.stage(format!("cutting and welding {} chunks", keys.len()));
     let mesh = world.extract_all();
     let contour_ms = t.elapsed().as_secs_f64() * 1e3;
+    progress.stage(format!("checking {} triangles", mesh.triangle_count()));
     let r = validate(&mesh, Some((&*loaded.field, cell)));
     let mut seam_triangles = 0;
     let mut m = IndexedMesh::default();
@@ -223,8 +236,10 @@ pub fn run(args: World) -> Result<(), String> {
         stats[k.level as usize].triangles += m.triangle_count();
     }
     if let Some(p) = &args.out {
+        progress.stage(format!("writing {}", p.display()));
         mesh.save(p).map_err(|e| e.to_string())?;
     }
+    progress.finish();
     let retained = world.retained_bytes();
     let ts: Vec<f32> = keys.iter().map(|k| world.threshold(k)).collect();
     if args.json {

@@ -763,3 +763,71 @@ fn threads_the_system_refuses_are_a_clear_error() {
     assert!(err.contains("ask for fewer"), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
 }
+
+/// `kdcontour` on a pseudo-terminal (util-linux `script` runs it on one):
+/// everything it wrote, progress included.
+#[cfg(target_os = "linux")]
+fn kdcontour_on_a_terminal(args: &[&str]) -> String {
+    let line = std::iter::once(env!("CARGO_BIN_EXE_kdcontour"))
+        .chain(args.iter().copied())
+        .collect::<Vec<_>>()
+        .join(" ");
+    let out = Command::new("script")
+        .args(["-qec", &line, "/dev/null"])
+        .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+        .output()
+        .expect("util-linux `script` runs (it gives the command a terminal)");
+    assert!(out.status.success(), "{out:?}");
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// Long work shows its stages, the chunks done and the time so far on a
+/// terminal; piped, or with --json, the output is exactly the results.
+#[cfg(target_os = "linux")]
+#[test]
+fn progress_shows_on_a_terminal_and_nowhere_else() {
+    let world = [
+        "world",
+        "--scene",
+        "gyroid",
+        "--chunks",
+        "16,16,16",
+        "--levels",
+        "camera:0,0,0",
+    ];
+    let shown = kdcontour_on_a_terminal(&world);
+    for stage in [
+        "building level 0: ",
+        "/64 chunks",
+        "building level 2: ",
+        "cutting and welding 176 chunks",
+        "checking ",
+        "about ",
+    ] {
+        assert!(shown.contains(stage), "no `{stage}` in {shown:?}");
+    }
+    // The line is cleared (erase-line) before the results print.
+    let results = shown.find("world      gyroid").expect("the results");
+    assert!(shown[..results].contains("\u{1b}[2K"), "{shown:?}");
+    let mesh = kdcontour_on_a_terminal(&["mesh", "--scene", "sphere", "--res", "64"]);
+    assert!(
+        mesh.contains("sampling and building, 262144 cells"),
+        "{mesh:?}"
+    );
+    assert!(mesh.contains("checking "), "{mesh:?}");
+    // Piped: nothing but the results, on stdout.
+    let (code, out, err) = kdcontour(&world);
+    assert_eq!((code, err.as_str()), (0, ""));
+    assert!(
+        out.starts_with("world      gyroid") && !out.contains('\u{1b}'),
+        "{out}"
+    );
+    // --json on a terminal: the one JSON line, no progress.
+    let json: Vec<&str> = world.iter().copied().chain(["--json"]).collect();
+    let line = kdcontour_on_a_terminal(&json);
+    assert!(
+        !line.contains("chunks:") && !line.contains('\u{1b}'),
+        "{line:?}"
+    );
+    assert_eq!(line.trim_end().lines().count(), 1, "{line:?}");
+}
