@@ -157,6 +157,25 @@ pub fn check_budget(what: impl Into<String>, needed: u64, budget: impl Into<u64>
     check_machine(what, needed)
 }
 
+/// `n` copies of `value`, or [`Error::Allocation`] naming `what` when the
+/// system will not give the memory: for buffers whose size comes from the
+/// input, so a failed allocation is an error, not an aborted process.
+pub fn filled<T: Clone>(what: impl FnOnce() -> String, n: u64, value: T) -> Result<Vec<T>> {
+    let refused = |what: String| Error::Allocation {
+        what,
+        needed: n.saturating_mul(std::mem::size_of::<T>() as u64),
+    };
+    let Ok(len) = usize::try_from(n) else {
+        return Err(refused(what()));
+    };
+    let mut v = Vec::new();
+    if v.try_reserve_exact(len).is_err() {
+        return Err(refused(what()));
+    }
+    v.resize(len, value);
+    Ok(v)
+}
+
 /// Refuses `needed` bytes for `what` when they are more than the machine can
 /// give now ([`machine_limit`]); only large requests (over 64 MiB) read it.
 pub fn check_machine(what: impl Into<String>, needed: u64) -> Result<()> {
@@ -228,6 +247,24 @@ fn address_space_limit(text: &str) -> Option<u64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_buffer_the_system_will_not_give_is_an_error_naming_it() {
+        let v = filled(|| "ten samples".into(), 10, 1.5f32).unwrap();
+        assert_eq!(v, vec![1.5; 10]);
+        // More than any address space (and more than usize on 32 bits): the
+        // allocator refuses, and the error says what and how much.
+        for n in [u64::MAX / 8, u64::MAX] {
+            let e = filled(|| format!("the samples of {n} grid corners"), n, 0f32).unwrap_err();
+            let text = e.to_string();
+            assert!(matches!(e, Error::Allocation { .. }), "{e:?}");
+            assert!(
+                text.contains(&format!("the samples of {n} grid corners"))
+                    && text.contains("the system would not allocate it"),
+                "{text}"
+            );
+        }
+    }
 
     #[test]
     fn sizes_parse_with_decimal_and_binary_units() {

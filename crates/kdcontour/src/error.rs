@@ -72,6 +72,20 @@ pub enum Error {
         /// What sets that limit, in a user's words.
         limit: &'static str,
     },
+    /// The system refused the memory for a buffer whose size comes from the
+    /// input (what the budget and machine checks let through, but the
+    /// allocator could not give): an error instead of an aborted process.
+    #[error(
+        "{what} needs {needed_size} ({needed} bytes) and the system would not \
+         allocate it; use a smaller input, or free memory",
+        needed_size = Size(*needed)
+    )]
+    Allocation {
+        /// What the buffer holds.
+        what: String,
+        /// Bytes asked for (`u64::MAX` when more than the address space).
+        needed: u64,
+    },
     /// A setting is outside its allowed range.
     #[error("invalid setting `{name}`: {reason}")]
     InvalidSetting {

@@ -37,7 +37,8 @@ pub fn one_sign(
         Some((_, b)) if b < 0.0 => -FAR,
         _ => return Ok(None),
     };
-    Ok(Some(vec![sign; grid.corner_count() as usize]))
+    let n = grid.corner_count();
+    crate::budget::filled(|| format!("the samples of {n} grid corners"), n, sign).map(Some)
 }
 
 /// Samples `field` at every corner of `grid`, in parallel over z slabs.
@@ -55,7 +56,8 @@ pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Vec
     check_grid(grid, settings)?;
     let c = grid.corners();
     let slab = (c.x * c.y) as usize;
-    let mut values = vec![0f32; grid.corner_count() as usize];
+    let n = grid.corner_count();
+    let mut values = crate::budget::filled(|| format!("the samples of {n} grid corners"), n, 0f32)?;
     let lipschitz = field.lipschitz().filter(|l| l.is_finite() && *l > 0.0);
     match lipschitz {
         None => sample_planes(field, grid, &mut values),

@@ -162,7 +162,12 @@ impl ChunkBuild {
         };
         let corners = g.corners().as_ivec3();
         // Points past the grid: NaN until first read.
-        let past: Vec<Cell<f32>> = vec![Cell::new(f32::NAN); wide.corner_count() as usize];
+        let wide_n = wide.corner_count();
+        let past: Vec<Cell<f32>> = crate::budget::filled(
+            || format!("the conformed samples of {wide_n} corners"),
+            wide_n,
+            Cell::new(f32::NAN),
+        )?;
         let bad: Cell<Option<(Vec3, f32)>> = Cell::new(None);
         // The sample as taken: sampling may leave a corner it proved far from the
         // surface at [`hermite::FAR`] with its sign.
@@ -236,7 +241,11 @@ impl ChunkBuild {
             })
         };
         let n = g.corners();
-        let mut values = vec![0f32; g.corner_count() as usize];
+        let mut values = crate::budget::filled(
+            || format!("the samples of {} grid corners", g.corner_count()),
+            g.corner_count(),
+            0f32,
+        )?;
         for z in 0..n.z {
             for y in 0..n.y {
                 for x in 0..n.x {
