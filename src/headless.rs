@@ -24,11 +24,11 @@ impl PluginGroup for HeadlessPlugins {
 }
 
 /// Updates `app` until `volume` has no meshing work queued, running or waiting
-/// for upload (nor navmesh tiles waiting to be linked in), and is still settled after one more update (so the last
-/// uploads' commands have applied and that update started nothing new, such as
-/// a horizon volume's next level change); at most `max_frames` updates,
-/// sleeping `pause` between them (tasks run on other threads). Returns whether
-/// it settled.
+/// for upload (nor navmesh tiles waiting to be linked in), and is still settled
+/// after one more update (so the last uploads' commands have applied and that
+/// update started nothing new, such as a horizon volume's next level change);
+/// at most `max_frames` updates, sleeping `pause` between them (tasks run on
+/// other threads). Returns whether it settled.
 pub fn run_until_settled(
     app: &mut App,
     volume: Entity,

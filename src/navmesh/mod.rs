@@ -395,9 +395,10 @@ fn want_tiles(
     let agent = settings.agent();
     let valid = agent.check();
     // What the tiles are built for: a change rebuilds them all (the distance
-    // and the linking budget do not).
+    // and the linking budget do not). Looked at only when the settings changed
+    // (a NaN would differ from itself every frame).
     let built_for = Some((agent.clone(), settings.enabled, settings.threshold));
-    if generation.1 != built_for {
+    if settings.is_changed() && generation.1 != built_for {
         generation.1 = built_for;
         generation.0 += 1;
         if let Err(e) = &valid {
@@ -452,7 +453,10 @@ fn link_waiting(
 ) {
     let (_time, _nav_time) = (clock.measure(), nav_clock.0.measure());
     let start = Instant::now();
-    let budget = std::time::Duration::from_secs_f32(settings.link_budget_ms.max(0.0) / 1e3);
+    // NaN or below 0: none (one tile a frame); past what a Duration holds
+    // (infinity): no limit.
+    let budget = std::time::Duration::try_from_secs_f32(settings.link_budget_ms.max(0.0) / 1e3)
+        .unwrap_or(std::time::Duration::MAX);
     let mut linked = 0;
     for mut nav in &mut volumes {
         while !nav.waiting.is_empty() && (linked == 0 || start.elapsed() < budget) {

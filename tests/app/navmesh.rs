@@ -255,13 +255,20 @@ fn new_agent_settings_rebuild_every_tile_and_off_takes_them_away() {
     let (mut app, volume) = world(&[s, g]);
     let first = stats(&app);
     let narrow = navmesh(&app, volume).find_path(s, g).unwrap();
-    // A new linking budget is not a new agent: nothing is built again.
-    app.world_mut()
-        .resource_mut::<NavmeshSettings>()
-        .link_budget_ms = 1.0;
-    app.update();
-    settle(&mut app, volume);
-    assert_eq!(stats(&app).tiles_built, first.tiles_built);
+    // A new linking budget is not a new agent: nothing is built again (an
+    // endless budget links everything at once, NaN one tile a frame).
+    for budget in [1.0, f32::INFINITY, f32::NAN] {
+        app.world_mut()
+            .resource_mut::<NavmeshSettings>()
+            .link_budget_ms = budget;
+        app.update();
+        settle(&mut app, volume);
+        assert_eq!(
+            stats(&app).tiles_built,
+            first.tiles_built,
+            "budget {budget}"
+        );
+    }
     // A wider agent: every tile built again, the path still there.
     app.world_mut()
         .resource_mut::<NavmeshSettings>()
