@@ -104,15 +104,14 @@ impl MainThreadClock {
     pub fn measure(&self) -> Measure<'_> {
         Measure {
             clock: self,
-            start: Instant::now(),
-            cpu_start: thread_cpu_ns(),
+            watch: Stopwatch::start(),
         }
     }
 
     /// Adds time measured elsewhere (a command the plugin queued, which runs
     /// after its system's guard has dropped): `wall` on the clock, `cpu` (when
     /// known) as processor time.
-    pub(crate) fn add(&self, wall: std::time::Duration, cpu: Option<u64>) {
+    fn add(&self, wall: std::time::Duration, cpu: Option<u64>) {
         let ns = wall.as_nanos().min(u64::MAX as u128) as u64;
         self.nanos.fetch_add(ns, Ordering::Relaxed);
         self.cpu_nanos
@@ -132,17 +131,54 @@ impl MainThreadClock {
 /// Adds the time since [`MainThreadClock::measure`] to the clock when dropped.
 pub struct Measure<'a> {
     clock: &'a MainThreadClock,
-    start: Instant,
-    cpu_start: Option<u64>,
+    watch: Stopwatch,
 }
 
 impl Drop for Measure<'_> {
     fn drop(&mut self) {
+        self.watch.add_to(self.clock);
+    }
+}
+
+/// Wall and processor time since it started, on the calling thread.
+pub(crate) struct Stopwatch {
+    start: Instant,
+    cpu_start: Option<u64>,
+}
+
+impl Stopwatch {
+    /// Starts timing.
+    pub(crate) fn start() -> Self {
+        Stopwatch {
+            start: Instant::now(),
+            cpu_start: thread_cpu_ns(),
+        }
+    }
+
+    /// The wall time and (where known) the processor time so far, in ns;
+    /// processor first, so it lies inside the wall time.
+    fn times(&self) -> (std::time::Duration, Option<u64>) {
         let cpu = self
             .cpu_start
             .zip(thread_cpu_ns())
             .map(|(a, b)| b.saturating_sub(a));
-        self.clock.add(self.start.elapsed(), cpu);
+        (self.start.elapsed(), cpu)
+    }
+
+    /// The processor time so far in ms where it is known, else the wall time.
+    #[cfg_attr(not(feature = "navmesh"), allow(dead_code))]
+    pub(crate) fn ms(&self) -> f64 {
+        match self.times() {
+            (_, Some(ns)) => ns as f64 * 1e-6,
+            (wall, None) => wall.as_secs_f64() * 1e3,
+        }
+    }
+
+    /// Adds the time so far to `clock`, and returns it as [`Stopwatch::ms`].
+    pub(crate) fn add_to(&self, clock: &MainThreadClock) -> f64 {
+        let (wall, cpu) = self.times();
+        clock.add(wall, cpu);
+        cpu.map_or(wall.as_secs_f64() * 1e3, |ns| ns as f64 * 1e-6)
     }
 }
 

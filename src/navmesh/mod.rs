@@ -34,7 +34,7 @@
 
 use crate::mesh::{ChunkExtra, ExtraKind, ExtraPayload, MeshExtra};
 use crate::state::VolumeState;
-use crate::stats::MainThreadClock;
+use crate::stats::{MainThreadClock, Stopwatch};
 use crate::volume::{to_volume, KdChunk, LodCamera};
 use crate::{KdContourStep, KdContourSystems};
 use bevy::ecs::system::EntityCommands;
@@ -291,21 +291,18 @@ impl MeshExtra for TileExtra {
 /// chunk's old one out), in the frame its mesh is shown; its main-thread time
 /// counts on the plugin's clock.
 fn put_tile(mut chunk: EntityWorldMut, built: Built) {
-    let (start, cpu_start) = (Instant::now(), crate::stats::thread_cpu_ns());
+    let watch = Stopwatch::start();
     link_tile(&mut chunk, built);
-    let cpu = cpu_start
-        .zip(crate::stats::thread_cpu_ns())
-        .map(|(a, b)| b.saturating_sub(a));
-    let took = start.elapsed();
     chunk.world_scope(|world| {
-        if let Some(clock) = world.get_resource::<MainThreadClock>() {
-            clock.add(took, cpu);
-        }
+        let ms = match world.get_resource::<MainThreadClock>() {
+            Some(clock) => watch.add_to(clock),
+            None => watch.ms(),
+        };
         if let Some(clock) = world.get_resource::<NavClock>() {
-            clock.0.add(took, cpu);
+            watch.add_to(&clock.0);
         }
         if let Some(mut stats) = world.get_resource_mut::<NavStats>() {
-            stats.link_ms += cpu.map_or(took.as_secs_f64() * 1e3, |ns| ns as f64 * 1e-6);
+            stats.link_ms += ms;
         }
     });
 }
@@ -460,17 +457,13 @@ fn link_waiting(
     let mut linked = 0;
     for mut nav in &mut volumes {
         while !nav.waiting.is_empty() && (linked == 0 || start.elapsed() < budget) {
-            let one = (Instant::now(), crate::stats::thread_cpu_ns());
+            let one = Stopwatch::start();
             let nav = &mut *nav;
             let (key, tile) = nav.waiting.pop_front().expect("not empty");
             nav.navmesh.insert(key, tile);
             nav.version += 1;
             linked += 1;
-            let cpu = one
-                .1
-                .zip(crate::stats::thread_cpu_ns())
-                .map(|(a, b)| b.saturating_sub(a));
-            let ms = cpu.map_or(one.0.elapsed().as_secs_f64() * 1e3, |ns| ns as f64 * 1e-6);
+            let ms = one.ms();
             stats.link_ms += ms;
             stats.link_ms_max = stats.link_ms_max.max(ms);
         }
