@@ -93,7 +93,7 @@ pub(super) fn refuse_folding_leaves(tree: &mut KdTree, h: &Hermite, surface: &dy
     }
     let test = &Facing::new(surface, &tree.grid);
     let edges = crossing_edges(tree);
-    let h = &Halo::new(h);
+    let h = &Links::new(tree, h);
     // The first pass visits every edge and learns its four cells; later ones only
     // the edges below a node the pass before refused. Refusals are rare: the few
     // edges that refuse share one list.
@@ -213,36 +213,117 @@ fn crossing_edges(tree: &KdTree) -> Vec<Edge> {
 /// The order in which the cells around an edge own it.
 const OWNER: [usize; 4] = [2, 1, 3, 0];
 
-/// The cells of the build's Hermite data outside the tree (a chunk's halo): their
-/// vertices stand in for the neighbouring chunk's, at its finest.
-struct Halo<'a> {
+/// Marks a cell of the build's Hermite data outside the tree (a chunk's halo) in
+/// [`Links::node_of`]: the rest of the word is its index in the data.
+const HALO: u32 = 1 << 31;
+
+/// What the guard looks up: each cell of the grid (a tree's cell leaf, or a cell
+/// of the build's Hermite data outside the tree, whose vertex stands in for the
+/// neighbouring chunk's at its finest) and each node's parent.
+struct Links<'a> {
     h: &'a Hermite,
+    /// Per row of the grid along x (`y + cells.y * z`): its first cell in the
+    /// data's cells (ordered by linear index), and one past the last row's.
+    rows: Vec<u32>,
+    /// Per cell of the data: its leaf node, or [`HALO`] with its own index.
+    node_of: Vec<u32>,
+    /// Per node: its parent, or [`NONE`] for the root.
+    up: Vec<u32>,
+    /// Per node: whether it or one of its ancestors may be a leaf, climbing
+    /// clusterable nodes only (as [`climb`] does): a cell whose parent has
+    /// none is its own polygon corner at every threshold.
+    reach: Vec<bool>,
 }
 
-impl<'a> Halo<'a> {
-    fn new(h: &'a Hermite) -> Self {
-        Halo { h }
+impl<'a> Links<'a> {
+    fn new(tree: &KdTree, h: &'a Hermite) -> Self {
+        let n = h.grid.cells;
+        let row = |c: [u16; 3]| c[1] as usize + n.y as usize * c[2] as usize;
+        let mut rows = vec![0u32; n.y as usize * n.z as usize + 1];
+        for c in &h.cells {
+            rows[row(c.coord) + 1] += 1;
+        }
+        for i in 1..rows.len() {
+            rows[i] += rows[i - 1];
+        }
+        let mut node_of: Vec<u32> = (0..h.cells.len() as u32).map(|i| HALO | i).collect();
+        let mut up = vec![NONE; tree.nodes.len()];
+        let mut links = Links {
+            h,
+            rows,
+            node_of: Vec::new(),
+            up: Vec::new(),
+            reach: Vec::new(),
+        };
+        for (i, node) in tree.nodes.iter().enumerate() {
+            if node.axis == CELL {
+                let at = links
+                    .index(node.min.map(u32::from))
+                    .expect("a cell of the data");
+                node_of[at] = i as u32;
+            }
+            for &c in &node.children {
+                if c != NONE {
+                    up[c as usize] = i as u32;
+                }
+            }
+        }
+        // Parents come after their children: top down is back to front.
+        let mut reach = vec![false; tree.nodes.len()];
+        for i in (0..tree.nodes.len()).rev() {
+            let node = &tree.nodes[i];
+            let above = up[i] != NONE && reach[up[i] as usize];
+            reach[i] = node.clusterable && (node.leaf_ok || above);
+        }
+        links.node_of = node_of;
+        links.up = up;
+        links.reach = reach;
+        links
     }
 
-    /// The index of cell `c` in the data and the patch of it that edge `edge`
-    /// belongs to; `None` when the data has no such cell or the edge does not
-    /// cross in it.
-    fn find(&self, c: [u32; 3], edge: usize) -> Option<(usize, u8)> {
-        let key = (c[2], c[1], c[0]);
-        let i = self
-            .h
-            .cells
-            .binary_search_by(|a| {
-                (a.coord[2] as u32, a.coord[1] as u32, a.coord[0] as u32).cmp(&key)
-            })
-            .ok()?;
+    /// The index of cell `c` in the data's cells (wrapped coordinates below the
+    /// grid are past it), `None` when it is not active or not in the grid.
+    fn index(&self, c: [u32; 3]) -> Option<usize> {
+        let n = self.h.grid.cells;
+        if c[0] >= n.x || c[1] >= n.y || c[2] >= n.z {
+            return None;
+        }
+        let row = c[1] as usize + n.y as usize * c[2] as usize;
+        let (start, end) = (self.rows[row] as usize, self.rows[row + 1] as usize);
+        let x = c[0] as u16;
+        self.h.cells[start..end]
+            .binary_search_by_key(&x, |a| a.coord[0])
+            .ok()
+            .map(|k| start + k)
+    }
+
+    /// What is at cell `c`: its leaf node, [`HALO`] with its index in the data,
+    /// or [`NONE`].
+    fn at(&self, c: [u32; 3]) -> u32 {
+        self.index(c).map_or(NONE, |i| self.node_of[i])
+    }
+
+    /// Sets `path` to the root-to-node path of `n`.
+    fn path(&self, n: u32, path: &mut Vec<u32>) {
+        path.clear();
+        let mut m = n;
+        while m != NONE {
+            path.push(m);
+            m = self.up[m as usize];
+        }
+        path.reverse();
+    }
+
+    /// The patch of halo cell `i` (its index in the data) that edge `edge`
+    /// belongs to; `None` when the edge does not cross in it.
+    fn halo(&self, i: usize, edge: usize) -> Option<(usize, u8)> {
         let cell = self.h.cells[i];
         let local = CellTables::get().cell(cell.config, cell.mask).edge_comp[edge];
         (local != NO_COMP).then_some((i, local))
     }
 
-    /// The rung of patch `local` of cell `i` (from [`Halo::find`]), standing in
-    /// quadrant `q`.
+    /// The rung of patch `local` of halo cell `i` (from [`Links::halo`]),
+    /// standing in quadrant `q`.
     fn rung(&self, (i, local): (usize, u8), q: usize) -> Rung {
         let cell = self.h.cells[i];
         let p = cell.patch_base as usize + local as usize;
@@ -265,48 +346,6 @@ struct Scratch {
     errors: Vec<f32>,
     /// The nodes this edge refused.
     refused: Vec<u32>,
-}
-
-/// Sets `path` to the root-to-cell path of `cell`, a cell in the tree's box, and
-/// returns the cell's node, or `None` when the tree has no such cell. It starts
-/// from the deepest node of `near` (a root-to-node path: a neighbouring cell's,
-/// most often) whose box holds the cell; `near` may be `path` itself.
-fn descend(
-    tree: &KdTree,
-    cell: [u32; 3],
-    near: Option<&[u32]>,
-    path: &mut Vec<u32>,
-) -> Option<u32> {
-    let holds = |n: u32| {
-        let node = &tree.nodes[n as usize];
-        (0..3).all(|a| node.min[a] as u32 <= cell[a] && cell[a] < node.max[a] as u32)
-    };
-    match near {
-        Some(near) => {
-            let keep = near.iter().rposition(|&n| holds(n)).map_or(0, |j| j + 1);
-            path.clear();
-            path.extend_from_slice(&near[..keep]);
-        }
-        None => {
-            let keep = path.iter().rposition(|&n| holds(n)).map_or(0, |j| j + 1);
-            path.truncate(keep);
-        }
-    }
-    if path.first() != Some(&tree.root) {
-        path.clear();
-        path.push(tree.root);
-    }
-    let mut n = *path.last().expect("the root at least");
-    while tree.nodes[n as usize].axis != CELL {
-        let node = &tree.nodes[n as usize];
-        n = node.children[(cell[node.axis as usize] >= node.split as u32) as usize];
-        if n == NONE {
-            path.clear();
-            return None;
-        }
-        path.push(n);
-    }
-    Some(n)
 }
 
 /// Fills `rungs` with the nodes the corner of the edge in the cell at the end of
@@ -346,37 +385,46 @@ fn climb(tree: &KdTree, path: &[u32], shared: usize, edge: usize, rungs: &mut Ve
 /// Returns the edge's four cells, or all [`NONE`] when one is not in the tree or
 /// when no corner can ever be a clustered node (refusals only take rungs away, so
 /// such an edge never needs looking at again).
-fn check_edge(tree: &KdTree, halo: &Halo, edge: Edge, s: &mut Scratch, test: &Facing) -> [u32; 4] {
+fn check_edge(
+    tree: &KdTree,
+    links: &Links,
+    edge: Edge,
+    s: &mut Scratch,
+    test: &Facing,
+) -> [u32; 4] {
     let Edge { line, d } = edge;
     let (u, v) = ((d + 1) % 3, (d + 2) % 3);
     let mut cells = [NONE; 4];
-    let root = &tree.nodes[tree.root as usize];
     let mut halo_cells = [None; 4];
-    // The first quadrant in the tree: the others start from its path.
-    let mut anchor: Option<usize> = None;
+    let mut reach = false;
     for (q, &(qu, qv)) in QUADRANT.iter().enumerate() {
         let mut c = line;
         // Wrapping: a cell below the grid's side is no cell at all.
         c[u] = (line[u] + qu).wrapping_sub(1);
         c[v] = (line[v] + qv).wrapping_sub(1);
-        if (0..3).all(|a| c[a] >= root.min[a] as u32 && c[a] < root.max[a] as u32) {
-            let found = match anchor {
-                None => descend(tree, c, None, &mut s.paths[q]),
-                Some(a) => {
-                    let (near, rest) = s.paths[..].split_at_mut(q);
-                    descend(tree, c, Some(near[a].as_slice()), &mut rest[0])
+        match links.at(c) {
+            NONE => return [NONE; 4],
+            x if x & HALO != 0 => {
+                match links.halo((x & !HALO) as usize, edge_index(d, 1 - qu, 1 - qv)) {
+                    Some(found) => halo_cells[q] = Some(found),
+                    None => return [NONE; 4],
                 }
-            };
-            anchor.get_or_insert(q);
-            match found {
-                Some(n) => cells[q] = n,
-                None => return [NONE; 4],
             }
-        } else {
-            match halo.find(c, edge_index(d, 1 - qu, 1 - qv)) {
-                Some(found) => halo_cells[q] = Some(found),
-                None => return [NONE; 4],
+            n => {
+                cells[q] = n;
+                let up = links.up[n as usize];
+                reach |= up != NONE && links.reach[up as usize];
             }
+        }
+    }
+    // No cell has an ancestor that may be a leaf: no clustered node at any
+    // corner, ever.
+    if !reach {
+        return [NONE; 4];
+    }
+    for (q, &n) in cells.iter().enumerate() {
+        if n != NONE {
+            links.path(n, &mut s.paths[q]);
         }
     }
     // The nodes all four cells share: above them the polygon has collapsed.
@@ -411,7 +459,7 @@ fn check_edge(tree: &KdTree, halo: &Halo, edge: Edge, s: &mut Scratch, test: &Fa
     }
     for (q, l) in s.ladders.iter_mut().enumerate() {
         match halo_cells[q] {
-            Some(found) => l.push(halo.rung(found, q)),
+            Some(found) => l.push(links.rung(found, q)),
             None => l.iter_mut().for_each(|r| r.place(tree)),
         }
     }
