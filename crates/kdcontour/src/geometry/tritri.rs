@@ -39,15 +39,23 @@ pub(crate) fn unit_normal(t: &[DVec3; 3]) -> Option<DVec3> {
 
 /// Signed distances of `a`'s vertices to the plane through `b0` with unit normal
 /// `n`, snapped to zero within `tol`.
+#[inline]
 fn plane_distances(a: &[DVec3; 3], n: DVec3, b0: DVec3, tol: f64) -> [f64; 3] {
-    a.map(|p| {
+    let snap = |p: DVec3| {
         let d = n.dot(p - b0);
         if d.abs() <= tol {
             0.0
         } else {
             d
         }
-    })
+    };
+    [snap(a[0]), snap(a[1]), snap(a[2])]
+}
+
+/// Whether distances `d` put a triangle wholly on one side of a plane.
+#[inline]
+fn one_side(d: &[f64; 3]) -> bool {
+    (d[0] > 0.0 && d[1] > 0.0 && d[2] > 0.0) || (d[0] < 0.0 && d[1] < 0.0 && d[2] < 0.0)
 }
 
 /// The interval that triangle `t` (signed distances `d` to the other plane) covers
@@ -134,11 +142,11 @@ pub(crate) fn contact_with_normals(
         return Contact::None;
     };
     let da = plane_distances(a, nb, b[0], tol.length);
-    if da.iter().all(|&x| x > 0.0) || da.iter().all(|&x| x < 0.0) {
+    if one_side(&da) {
         return Contact::None;
     }
     let db = plane_distances(b, na, a[0], tol.length);
-    if db.iter().all(|&x| x > 0.0) || db.iter().all(|&x| x < 0.0) {
+    if one_side(&db) {
         return Contact::None;
     }
     // One lying in the other's plane makes the pair coplanar (a small triangle's

@@ -280,7 +280,8 @@ impl Around {
     ///
     /// A folding quad moves all four of its corners, whose near quads overlap:
     /// each quad around a patch is counted once against the union of its
-    /// patches' near quads, and the counts are summed per patch.
+    /// patches' near quads (each pair of such quads once), and each patch's
+    /// count is summed from its quads' counts.
     fn counts(
         &self,
         moving: &[u32],
@@ -297,11 +298,15 @@ impl Around {
             .collect();
         sides.sort_unstable();
         let groups: Vec<&[(u32, u32)]> = sides.chunk_by(|a, b| a.0 == b.0).collect();
-        // Per such quad: the quads it is counted against, with the count.
+        // Per quad: its group, or `UNCOUNTED`.
+        let mut group_of = vec![UNCOUNTED; slot.len()];
+        for (g, group) in groups.iter().enumerate() {
+            group_of[group[0].0 as usize] = g as u32;
+        }
+        // Per group, the quads it is counted against (sorted), with the count.
         // A pair of quads both around moving patches is counted once, by the
         // lower quad (`UNCOUNTED` until then).
-        let is_group = |r: u32| groups.binary_search_by_key(&r, |g| g[0].0).is_ok();
-        let mut counted: Vec<(u32, Vec<(u32, u32)>)> = groups
+        let mut counted: Vec<Vec<(u32, u32)>> = groups
             .par_iter()
             .map(|g| {
                 let q = g[0].0;
@@ -312,69 +317,89 @@ impl Around {
                     .collect();
                 against.sort_unstable();
                 against.dedup();
-                let counts = against
+                against
                     .iter()
                     .map(|&r| {
-                        let n = if r < q && is_group(r) {
+                        let n = if r < q && group_of[r as usize] != UNCOUNTED {
                             UNCOUNTED
                         } else {
                             pair_crossings(placed, slot, q, r) as u32
                         };
                         (r, n)
                     })
-                    .collect();
-                (q, counts)
+                    .collect()
             })
             .collect();
-        let lookup = |counted: &[(u32, Vec<(u32, u32)>)], q: u32, r: u32| {
-            let k = counted.binary_search_by_key(&q, |c| c.0).ok()?;
-            let against = &counted[k].1;
+        let lookup = |counted: &[Vec<(u32, u32)>], q: u32, r: u32| {
+            let against = &counted[group_of[q as usize] as usize];
             let m = against.binary_search_by_key(&r, |c| c.0).ok()?;
             Some(against[m].1).filter(|&n| n != UNCOUNTED)
         };
         let filled: Vec<Vec<u32>> = counted
             .par_iter()
-            .map(|(q, against)| {
+            .zip(&groups)
+            .map(|(against, g)| {
+                let q = g[0].0;
                 against
                     .iter()
                     .filter(|c| c.1 == UNCOUNTED)
                     .map(|&(r, _)| {
-                        lookup(&counted, r, *q)
-                            .unwrap_or_else(|| pair_crossings(placed, slot, r, *q) as u32)
+                        lookup(&counted, r, q)
+                            .unwrap_or_else(|| pair_crossings(placed, slot, r, q) as u32)
                     })
                     .collect()
             })
             .collect();
-        for ((_, against), filled) in counted.iter_mut().zip(filled) {
+        for (against, filled) in counted.iter_mut().zip(filled) {
             let mut filled = filled.into_iter();
             for c in against.iter_mut().filter(|c| c.1 == UNCOUNTED) {
                 c.1 = filled.next().expect("one count per uncounted pair");
             }
         }
-        which
+        // Per group, each of its patches' share: its quad against the patch's
+        // near quads (all among the group's, read from a per-thread table
+        // indexed by quad).
+        let shares: Vec<(u32, usize)> = counted
             .par_iter()
-            .map(|&i| {
-                let mut n = 0usize;
-                for &q in self.of(moving[i]) {
-                    let k = counted
-                        .binary_search_by_key(&q, |c| c.0)
-                        .expect("every quad around a patch is counted");
-                    let against = &counted[k].1;
-                    for &r in near[i].iter().filter(|&&r| r != q) {
-                        let m = against
-                            .binary_search_by_key(&r, |c| c.0)
-                            .expect("every near quad is counted");
-                        n += against[m].1 as usize;
+            .zip(&groups)
+            .map_init(
+                || vec![0u32; slot.len()],
+                |count, (against, g)| {
+                    let q = g[0].0;
+                    for &(r, n) in against {
+                        count[r as usize] = n;
                     }
-                }
-                n
-            })
-            .collect()
+                    g.iter()
+                        .map(|&(_, j)| {
+                            let share = near[which[j as usize]]
+                                .iter()
+                                .filter(|&&r| r != q)
+                                .map(|&r| count[r as usize] as usize)
+                                .sum();
+                            (j, share)
+                        })
+                        .collect::<Vec<_>>()
+                },
+            )
+            .flatten_iter()
+            .collect();
+        let mut n = vec![0usize; which.len()];
+        for (j, share) in shares {
+            n[j as usize] += share;
+        }
+        n
     }
 }
 
+/// The four triangles of a quad, both diagonals, as corners of it.
+const TRIANGLES: [[usize; 3]; 4] = [[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]];
+/// [`TRIANGLES`] as bits of the quad's corners.
+const TRIANGLE_MASKS: [u8; 4] = [0b0111, 0b1101, 0b1011, 0b1110];
+
 /// How many pairs of triangles cross, one of quad `q` and one of quad `r`,
-/// placed at `placed[slot[quad]]`.
+/// placed at `placed[slot[quad]]`. Two triangles with two corners in common
+/// (an edge) never do: their planes meet along that edge, which both only
+/// touch.
 fn pair_crossings(placed: &[PlacedQuad], slot: &[u32], q: u32, r: u32) -> usize {
     let (a, b) = (
         &placed[slot[q as usize] as usize],
@@ -383,26 +408,63 @@ fn pair_crossings(placed: &[PlacedQuad], slot: &[u32], q: u32, r: u32) -> usize 
     if !a.bounds.meets(&b.bounds) {
         return 0;
     }
-    a.triangles
-        .iter()
-        .filter(|a| a.bounds.meets(&b.bounds))
-        .map(|a| b.triangles.iter().filter(|b| a.crosses(b)).count())
-        .sum()
+    // Per corner of `a`: the bit of the corner of `b` that is the same patch.
+    let same = a.patches.map(|p| {
+        b.patches
+            .iter()
+            .position(|&o| o == p)
+            .map_or(0u8, |k| 1 << k)
+    });
+    let tol = Tolerance {
+        length: crate::geometry::INTERSECTION_TOL_CELLS,
+        area: crate::geometry::ZERO_AREA_CELLS2,
+    };
+    let mut n = 0;
+    for (ta, ca) in TRIANGLES.iter().enumerate() {
+        if !a.triangle_bounds[ta].meets(&b.bounds) {
+            continue;
+        }
+        let shared_with = same[ca[0]] | same[ca[1]] | same[ca[2]];
+        let pa = [a.corners[ca[0]], a.corners[ca[1]], a.corners[ca[2]]];
+        for (tb, cb) in TRIANGLES.iter().enumerate() {
+            if !a.triangle_bounds[ta].meets(&b.triangle_bounds[tb]) {
+                continue;
+            }
+            if (shared_with & TRIANGLE_MASKS[tb]).count_ones() >= 2 {
+                continue;
+            }
+            let pb = [b.corners[cb[0]], b.corners[cb[1]], b.corners[cb[2]]];
+            let contact = contact_with_normals(&pa, a.normals[ta], &pb, b.normals[tb], tol);
+            n += matches!(contact, Contact::Cross { .. }) as usize;
+        }
+    }
+    n
 }
 
-/// A quad's four triangles (both diagonals) and the box around them.
+/// A quad's four triangles (both diagonals, [`TRIANGLES`]): its corners and
+/// patches, each triangle's unit normal and box, and the box around them.
 struct PlacedQuad {
-    triangles: [Placed; 4],
+    corners: [DVec3; 4],
+    patches: [u32; 4],
+    normals: [Option<DVec3>; 4],
+    triangle_bounds: [Bounds; 4],
     bounds: Bounds,
 }
 
 /// The four triangles of `quad` (both diagonals) with its patches at `vertex`.
 fn place_quad(quad: &DualQuad, vertex: &[Vec3]) -> PlacedQuad {
     let v = quad.patches.map(|i| vertex[i as usize].as_dvec3());
+    let tri = |t: [usize; 3]| t.map(|k| v[k]);
     PlacedQuad {
-        triangles: [[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]].map(|t| Placed {
-            patches: t.map(|k| quad.patches[k]),
-            ..Placed::new(t.map(|k| v[k]))
+        corners: v,
+        patches: quad.patches,
+        normals: TRIANGLES.map(|t| unit_normal(&tri(t))),
+        triangle_bounds: TRIANGLES.map(|t| {
+            let t = tri(t);
+            Bounds {
+                lo: t[0].min(t[1]).min(t[2]),
+                hi: t[0].max(t[1]).max(t[2]),
+            }
         }),
         bounds: Bounds {
             lo: v[0].min(v[1]).min(v[2]).min(v[3]),
@@ -421,53 +483,5 @@ impl Bounds {
     /// Whether the boxes overlap or touch.
     fn meets(&self, o: &Bounds) -> bool {
         !(self.lo.cmpgt(o.hi).any() || o.lo.cmpgt(self.hi).any())
-    }
-}
-
-/// A triangle with its patches, unit normal and bounding box.
-struct Placed {
-    /// The patches at its corners (`u32::MAX` where not known).
-    patches: [u32; 3],
-    corners: [DVec3; 3],
-    normal: Option<DVec3>,
-    bounds: Bounds,
-}
-
-impl Placed {
-    fn new(t: [DVec3; 3]) -> Self {
-        Placed {
-            patches: [u32::MAX; 3],
-            corners: t,
-            normal: unit_normal(&t),
-            bounds: Bounds {
-                lo: t[0].min(t[1]).min(t[2]),
-                hi: t[0].max(t[1]).max(t[2]),
-            },
-        }
-    }
-
-    /// Whether the interiors cross ([`Contact::Cross`]). Two triangles with
-    /// two corners in common (an edge) never do: their planes meet along that
-    /// edge, which both only touch.
-    fn crosses(&self, o: &Placed) -> bool {
-        if !self.bounds.meets(&o.bounds) {
-            return false;
-        }
-        let shared = self
-            .patches
-            .iter()
-            .filter(|&&p| p != u32::MAX && o.patches.contains(&p))
-            .count();
-        if shared >= 2 {
-            return false;
-        }
-        let tol = Tolerance {
-            length: crate::geometry::INTERSECTION_TOL_CELLS,
-            area: crate::geometry::ZERO_AREA_CELLS2,
-        };
-        matches!(
-            contact_with_normals(&self.corners, self.normal, &o.corners, o.normal, tol),
-            Contact::Cross { .. }
-        )
     }
 }
