@@ -6,9 +6,11 @@
 //! gradient) feeds per-component quadratic error functions, a k-d tree is built top
 //! down by splitting on the axis of largest per-dimension error at the plane that
 //! balances the error of the halves, nodes are clustered bottom up where topology
-//! allows, and the tree is contoured at any error threshold by
-//! `cell_proc` / `face_proc` / `edge_proc`. The tree is retained: a new threshold is a
-//! cheap re-walk, never a rebuild or a re-sample.
+//! allows, and the tree is contoured at any error threshold: each crossing edge's
+//! polygon joins the leaves that hold its cells (the polygons of the paper's
+//! `cell_proc` / `face_proc` / `edge_proc`, which walk the seams between chunks). The
+//! tree is retained: a new threshold is a cheap re-extraction, never a rebuild or a
+//! re-sample.
 //!
 //! ```
 //! use kdcontour::{Grid, KdTree, Settings, validate};

@@ -1,17 +1,19 @@
-//! Polygon generation at an error threshold (section 6): `cell_proc`, `face_proc`
-//! and `edge_proc` walk the retained tree to every minimal edge with a sign change;
-//! its 3 or 4 surrounding leaves give a triangle or a quad.
+//! Polygon generation at an error threshold (section 6): every minimal edge with a
+//! sign change between leaves gives a triangle or a quad of its 3 or 4 surrounding
+//! leaves.
 //!
 //! A *leaf of threshold e* is a cell, or a clusterable node whose error is at most
 //! `e` (errors never decrease going up, so the first such node on the way down is
 //! the cut). Extraction reads the tree only: no field sample, no rebuild.
 //!
-//! The walk runs over several trees at once ([`Part`]s placed on one lattice of
-//! cells, each with its own threshold): that is how chunk seams are contoured.
-//! `face_proc` on two chunk roots and `edge_proc` on the four chunk roots around a
-//! chunk edge meet each tree at its own cut, so neighbours at different thresholds
-//! join without cracks.
+//! The inside of one tree is contoured edge by edge from its cells' leaves
+//! (`edges.rs`). Seams are walked (`face_proc` and `edge_proc`, as the paper's
+//! `cell_proc` does) over several trees at once ([`Part`]s placed on one lattice
+//! of cells, each with its own threshold): `face_proc` on two chunk roots and
+//! `edge_proc` on the four chunk roots around a chunk edge meet each tree at its
+//! own cut, so neighbours at different thresholds join without cracks.
 
+mod edges;
 mod levels;
 
 use super::{KdNode, KdTree, NONE};
@@ -90,20 +92,13 @@ struct Walker<'a, 'b> {
     parts: &'b [Part<'a>],
     /// Per part: the vertex made for each component, or `u32::MAX`.
     vertex_of: Vec<Vec<u32>>,
-    /// Per part: the component that `vertex_of[t][0]` stands for (a piece of a
-    /// parallel extraction maps only its subtree's components).
-    vertex_base: Vec<usize>,
-    /// The component behind each vertex made, in order (merging pieces reads it).
-    sources: Vec<u32>,
     mesh: &'b mut IndexedMesh,
 }
 
-/// Trees with at least this many components are extracted in parallel when the
-/// pool has more than one thread (below it a piece's set-up outweighs its walk).
+/// Trees with at least this many components find their polygons in parallel when
+/// the pool has more than one thread (below it the batches' set-up outweighs the
+/// work).
 const PARALLEL_COMPS: usize = 16_384;
-/// Levels of the tree split into parallel pieces: up to 16 subtree walks and the 15
-/// face walks between them.
-const PARALLEL_LEVELS: u32 = 4;
 
 /// Contours `jobs` over `parts` into `out` (appended; vertices are shared between
 /// the jobs of one call).
@@ -114,8 +109,6 @@ pub fn contour(parts: &[Part], jobs: &[Job], out: &mut IndexedMesh) {
             .iter()
             .map(|p| vec![u32::MAX; p.tree.comps.len()])
             .collect(),
-        vertex_base: vec![0; parts.len()],
-        sources: Vec::new(),
         mesh: out,
     };
     for job in jobs {
@@ -124,7 +117,13 @@ pub fn contour(parts: &[Part], jobs: &[Job], out: &mut IndexedMesh) {
             n: parts[i].tree.root,
         };
         match *job {
-            Job::Cell(i) => w.cell_proc(root(i)),
+            Job::Cell(i) => {
+                let tree = parts[i].tree;
+                let parallel =
+                    rayon::current_num_threads() > 1 && tree.comps.len() >= PARALLEL_COMPS;
+                let polygons = edges::inside(tree, parts[i].threshold, parallel);
+                w.emit_polygons(i as u32, &polygons);
+            }
             Job::Face { low, high, axis } => w.face_proc([root(low), root(high)], axis),
             Job::Edge {
                 parts: p,
@@ -141,117 +140,13 @@ pub fn contour(parts: &[Part], jobs: &[Job], out: &mut IndexedMesh) {
     }
 }
 
-/// The mesh of one piece of a parallel extraction, with local vertex indices.
-struct Piece {
-    mesh: IndexedMesh,
-    /// The component behind each of its vertices.
-    sources: Vec<u32>,
-}
-
-/// The components of node `n`'s subtree: one contiguous range, since the build
-/// appends a subtree's components in post-order (its first cell's first, the
-/// node's own last).
-fn comp_range(tree: &KdTree, n: u32) -> std::ops::Range<usize> {
-    let mut m = n;
-    loop {
-        let node = &tree.nodes[m as usize];
-        if node.axis == super::CELL {
-            break;
-        }
-        m = if node.children[0] != NONE {
-            node.children[0]
-        } else {
-            node.children[1]
-        };
-    }
-    let last = &tree.nodes[n as usize];
-    tree.nodes[m as usize].comp_start as usize..(last.comp_start + last.comp_count as u32) as usize
-}
-
-/// Walks with `f` on a walker of its own that maps only the components `range`.
-fn walk_piece(parts: &[Part], range: std::ops::Range<usize>, f: impl FnOnce(&mut Walker)) -> Piece {
-    let mut mesh = IndexedMesh::default();
-    let mut w = Walker {
-        parts,
-        vertex_of: vec![vec![u32::MAX; range.len()]],
-        vertex_base: vec![range.start],
-        sources: Vec::new(),
-        mesh: &mut mesh,
-    };
-    f(&mut w);
-    let sources = std::mem::take(&mut w.sources);
-    Piece { mesh, sources }
-}
-
-/// `cell_proc` of node `n` of the single part, as pieces in the order the serial
-/// walk would make them: the low child's, the high child's, then the face between
-/// them. The three run in parallel for `levels` levels.
-fn cell_pieces(parts: &[Part], n: u32, levels: u32, out: &mut Vec<Piece>) {
-    let tree = parts[0].tree;
-    let r = NodeRef { t: 0, n };
-    if levels == 0 {
-        out.push(walk_piece(parts, comp_range(tree, n), |w| w.cell_proc(r)));
-        return;
-    }
-    if tree.is_leaf(n, parts[0].threshold) {
-        return;
-    }
-    let node = &tree.nodes[n as usize];
-    let [a, b] = node.children;
-    let axis = node.axis as usize;
-    let sub = |c: u32| {
-        let mut v = Vec::new();
-        if c != NONE {
-            cell_pieces(parts, c, levels - 1, &mut v);
-        }
-        v
-    };
-    let ((pa, pb), face) = rayon::join(
-        || rayon::join(|| sub(a), || sub(b)),
-        || {
-            (a != NONE && b != NONE).then(|| {
-                let range = comp_range(tree, a).start..comp_range(tree, b).end;
-                let (ra, rb) = (NodeRef { t: 0, n: a }, NodeRef { t: 0, n: b });
-                walk_piece(parts, range, |w| w.face_proc([ra, rb], axis))
-            })
-        },
-    );
-    out.extend(pa);
-    out.extend(pb);
-    out.extend(face);
-}
-
-/// Appends the pieces to `out` in order, giving each component one vertex, numbered
-/// by first use: the same mesh, index for index, as one serial walk.
-fn merge(pieces: Vec<Piece>, comps: usize, out: &mut IndexedMesh) {
-    let mut vertex_of = vec![u32::MAX; comps];
-    let mut remap = Vec::new();
-    for p in pieces {
-        remap.clear();
-        for (k, &c) in p.sources.iter().enumerate() {
-            let slot = &mut vertex_of[c as usize];
-            if *slot == u32::MAX {
-                *slot = out.positions.len() as u32;
-                out.positions.push(p.mesh.positions[k]);
-                out.normals.push(p.mesh.normals[k]);
-                if let Some(m) = p.mesh.materials.get(k) {
-                    out.materials.push(*m);
-                }
-            }
-            remap.push(*slot);
-        }
-        out.indices
-            .extend(p.mesh.indices.iter().map(|&i| remap[i as usize]));
-    }
-}
-
 impl KdTree {
     /// Contours the tree at `threshold` into `out` (cleared first, capacity kept).
     /// A negative threshold gives uniform Dual Marching Cubes.
     ///
-    /// Large trees are walked in parallel on the current rayon pool (subtrees and
-    /// the faces between them as separate pieces, merged in the serial walk's
-    /// order), so the mesh is the same on any number of threads.
+    /// Large trees find their polygons in parallel on the current rayon pool
+    /// (batches of cells, emitted in order), so the mesh is the same on any
+    /// number of threads.
     pub fn extract(&self, threshold: f32, out: &mut IndexedMesh) {
         out.reset();
         let parts = [Part {
@@ -260,15 +155,6 @@ impl KdTree {
             threshold,
             shift: 0,
         }];
-        if rayon::current_num_threads() > 1
-            && self.comps.len() >= PARALLEL_COMPS
-            && self.root != NONE
-        {
-            let mut pieces = Vec::new();
-            cell_pieces(&parts, self.root, PARALLEL_LEVELS, &mut pieces);
-            merge(pieces, self.comps.len(), out);
-            return;
-        }
         contour(&parts, &[Job::Cell(0)], out);
     }
 
@@ -347,6 +233,7 @@ impl Walker<'_, '_> {
             .is_outside([0, 1, 2].map(|a| ((g[a] - o[a]) >> p.shift) as u32))
     }
 
+    #[cfg(test)]
     fn cell_proc(&mut self, r: NodeRef) {
         if r.is_none() || self.leaf(r) {
             return;
@@ -563,9 +450,8 @@ impl Walker<'_, '_> {
         let parts = self.parts;
         let tree = parts[leaf.t as usize].tree;
         let ci = (tree.nodes[leaf.n as usize].comp_start + local as u32) as usize;
-        let slot = &mut self.vertex_of[leaf.t as usize][ci - self.vertex_base[leaf.t as usize]];
+        let slot = &mut self.vertex_of[leaf.t as usize][ci];
         if *slot == u32::MAX {
-            self.sources.push(ci as u32);
             let c = tree.comps[ci];
             let (lo, hi) = tree.node_box(leaf.n);
             *slot = self.mesh.positions.len() as u32;

@@ -14,8 +14,9 @@
 //!   each node as the recursion returns.
 //! - `fold.rs`: the geometric test a clustered node passes before it may be a
 //!   leaf (its dual polygons must not fold against its finest neighbours).
-//! - `contour.rs`: contouring at a threshold (section 6: `cell_proc`, `face_proc`,
-//!   `edge_proc`).
+//! - `contour.rs`: contouring at a threshold (section 6): a tree's inside edge by
+//!   edge from its cells' leaves, seams between trees by `face_proc` and
+//!   `edge_proc`.
 //!
 //! [`Comp`] (the packed dual vertex, [`crate::comp`]) and [`Partition`] (a setting,
 //! [`crate::settings`]) live below this module and are re-exported here.
