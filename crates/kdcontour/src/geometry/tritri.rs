@@ -123,8 +123,45 @@ fn overlap_area(a: &[DVec3; 3], b: &[DVec3; 3], n: DVec3) -> f64 {
     0.5 * area.dot(n).abs()
 }
 
+/// Whether triangles `a` and `b` (unit normals `na`, `nb`), which share the
+/// corner `a[shared_a]` = `b[shared_b]` and no other, are certainly apart or only
+/// touching: [`contact_with_normals`] gives [`Contact::None`] for them. Two
+/// triangles from one corner cross only when each one's two other corners lie
+/// strictly on both sides of the other's plane (the shared corner lies on both
+/// planes); both other corners on a plane is the coplanar case, left to
+/// [`contact_with_normals`]. Half the work of the full test, for the most
+/// common pair of neighbouring triangles.
+pub(crate) fn apart_from_shared_corner(
+    a: &[DVec3; 3],
+    na: Option<DVec3>,
+    shared_a: usize,
+    b: &[DVec3; 3],
+    nb: Option<DVec3>,
+    shared_b: usize,
+    tol: Tolerance,
+) -> bool {
+    let (Some(na), Some(nb)) = (na, nb) else {
+        return true;
+    };
+    // As `plane_distances` measures them, from the same plane points.
+    let side = |p: DVec3, n: DVec3, o: DVec3| {
+        let d = n.dot(p - o);
+        if d.abs() <= tol.length {
+            0.0
+        } else {
+            d
+        }
+    };
+    let others = |k: usize| [(k + 1) % 3, (k + 2) % 3];
+    let [a1, a2] = others(shared_a).map(|i| side(a[i], nb, b[0]));
+    let [b1, b2] = others(shared_b).map(|i| side(b[i], na, a[0]));
+    let flat = (a1 == 0.0 && a2 == 0.0) || (b1 == 0.0 && b2 == 0.0);
+    !flat && (a1 * a2 >= 0.0 || b1 * b2 >= 0.0)
+}
+
 /// How triangles `a` and `b` meet. Triangles of zero area meet nothing (they are
 /// counted elsewhere).
+#[cfg(test)]
 pub(crate) fn contact(a: &[DVec3; 3], b: &[DVec3; 3], tol: Tolerance) -> Contact {
     contact_with_normals(a, unit_normal(a), b, unit_normal(b), tol)
 }
@@ -239,5 +276,57 @@ mod tests {
         // Coplanar, sharing a vertex only.
         let corner = t([[0., 0., 0.], [-1., 0., 0.], [0., -1., 0.]]);
         assert_eq!(contact(&a, &corner, TOL), Contact::None);
+    }
+
+    /// The quick test for triangles from one corner never calls apart a pair
+    /// the full test finds crossing or overlapping, and calls most of the
+    /// others apart: random pairs around a shared corner, some nearly in one
+    /// plane, with the corner at every position of both triangles.
+    #[test]
+    fn apart_from_a_shared_corner_agrees_with_the_full_test() {
+        let tol = Tolerance {
+            length: 1e-3,
+            area: 1e-6,
+        };
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let (mut apart, mut crossing, mut full_none) = (0, 0, 0);
+        for i in 0..20_000 {
+            let flat = if i % 4 == 0 { 1e-4 } else { 1.0 };
+            let corner = DVec3::new(next(), next(), next());
+            let mut p = || corner + DVec3::new(next(), next(), next() * flat);
+            let (a1, a2, b1, b2) = (p(), p(), p(), p());
+            let (sa, sb) = (i % 3, (i / 3) % 3);
+            let mut a = [a1, a2, a1];
+            a[sa] = corner;
+            a[(sa + 1) % 3] = a1;
+            a[(sa + 2) % 3] = a2;
+            let mut b = [b1, b2, b1];
+            b[sb] = corner;
+            b[(sb + 1) % 3] = b1;
+            b[(sb + 2) % 3] = b2;
+            let (na, nb) = (unit_normal(&a), unit_normal(&b));
+            let full = contact_with_normals(&a, na, &b, nb, tol);
+            let quick = apart_from_shared_corner(&a, na, sa, &b, nb, sb, tol);
+            if quick {
+                assert_eq!(full, Contact::None, "{a:?} {b:?}");
+                apart += 1;
+            }
+            match full {
+                Contact::None => full_none += 1,
+                _ => crossing += 1,
+            }
+        }
+        assert!(crossing > 100, "{crossing} crossing pairs");
+        // (72% of them here: the rest straddle each other's planes apart.)
+        assert!(
+            apart * 3 > full_none * 2,
+            "{apart} of {full_none} apart pairs"
+        );
     }
 }

@@ -37,7 +37,9 @@ use super::ActiveCell;
 use crate::cell::CellTables;
 use crate::comp::Comp;
 use crate::facing::Facing;
-use crate::geometry::tritri::{contact_with_normals, unit_normal, Contact, Tolerance};
+use crate::geometry::tritri::{
+    apart_from_shared_corner, contact_with_normals, unit_normal, Contact, Tolerance,
+};
 use crate::qef::Qef;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -430,10 +432,27 @@ fn pair_crossings(placed: &[PlacedQuad], slot: &[u32], q: u32, r: u32) -> usize 
             if !a.triangle_bounds[ta].meets(&b.triangle_bounds[tb]) {
                 continue;
             }
-            if (shared_with & TRIANGLE_MASKS[tb]).count_ones() >= 2 {
+            let shared = shared_with & TRIANGLE_MASKS[tb];
+            if shared.count_ones() >= 2 {
                 continue;
             }
             let pb = [b.corners[cb[0]], b.corners[cb[1]], b.corners[cb[2]]];
+            if shared != 0 {
+                // One corner in common: the quick test first.
+                let k = shared.trailing_zeros() as usize;
+                let sb = cb
+                    .iter()
+                    .position(|&c| c == k)
+                    .expect("a corner of b's triangle");
+                let sa = ca
+                    .iter()
+                    .position(|&c| same[c] == shared)
+                    .expect("a corner of a's triangle");
+                let (na, nb) = (a.normals[ta], b.normals[tb]);
+                if apart_from_shared_corner(&pa, na, sa, &pb, nb, sb, tol) {
+                    continue;
+                }
+            }
             let contact = contact_with_normals(&pa, a.normals[ta], &pb, b.normals[tb], tol);
             n += matches!(contact, Contact::Cross { .. }) as usize;
         }

@@ -406,7 +406,21 @@ fn intersections(
     };
     let hits = grid.pairs(|a, b| {
         let (ta, tb) = (tris[a as usize], tris[b as usize]);
-        let c = tritri::contact(&faces::corners(pos, ta), &faces::corners(pos, tb), tol);
+        let (pa, pb) = (faces::corners(pos, ta), faces::corners(pos, tb));
+        let (na, nb) = (tritri::unit_normal(&pa), tritri::unit_normal(&pb));
+        // Neighbours from one vertex: the quick test first.
+        let mut shared = (0, None);
+        for i in 0..3 {
+            if let Some(j) = tb.iter().position(|&v| v == ta[i]) {
+                shared = (shared.0 + 1, Some((i, j)));
+            }
+        }
+        if let (1, Some((i, j))) = shared {
+            if tritri::apart_from_shared_corner(&pa, na, i, &pb, nb, j, tol) {
+                return None;
+            }
+        }
+        let c = tritri::contact_with_normals(&pa, na, &pb, nb, tol);
         (c != tritri::Contact::None).then_some((a, b, c))
     });
     let mut r = Intersections::default();
