@@ -92,9 +92,15 @@ fn load(args: &Args) -> Result<(SampledVolume, String), String> {
             return Err(format!("--phantom must be 8 to 256, got {}", args.phantom));
         }
         let (mut v, kind) = if args.segmented {
-            (phantom(args.phantom), "center samples")
+            (
+                phantom(args.phantom).map_err(|e| e.to_string())?,
+                "center samples",
+            )
         } else {
-            (phantom_scanned(args.phantom), "partial volumes")
+            (
+                phantom_scanned(args.phantom).map_err(|e| e.to_string())?,
+                "partial volumes",
+            )
         };
         v.inside = inside;
         return Ok((

@@ -53,7 +53,8 @@ pub fn run(args: Phantom) -> Result<(), String> {
         volume::phantom_scanned(res)
     } else {
         volume::phantom(res)
-    };
+    }
+    .map_err(|e| e.to_string())?;
     progress.stage(format!("writing {}", out.display()));
     volume::write_nifti(&out, &vol).map_err(|e| e.to_string())?;
     progress.finish();

@@ -52,7 +52,7 @@ fn main() {
         "DP s>m",
         "closed"
     );
-    let vol = phantom(voxels);
+    let vol = phantom(voxels).expect("the phantom fits in memory");
     let (lo, hi) = vol.bounds();
     let grid = Grid::fit(lo, hi, voxels - 1);
     row("phantom", &vol, &grid, reps, &settings);

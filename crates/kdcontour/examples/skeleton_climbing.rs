@@ -48,7 +48,7 @@ fn main() {
     );
     for name in &names {
         let (field, grid): (Box<dyn Field>, Grid) = if name == "phantom" {
-            let v = volume::phantom(res);
+            let v = volume::phantom(res).expect("the phantom fits in memory");
             let (lo, hi) = v.bounds();
             (Box::new(v), Grid::fit(lo, hi, res))
         } else if name == "mni152" {

@@ -78,10 +78,15 @@ pub fn padded(grid: &Grid) -> Grid {
 }
 
 /// The samples of [`padded`]`(grid)`: `values` inside, `FAR` (outside, never
-/// evaluated) on the new corners.
-pub fn pad_values(grid: &Grid, values: &[f32]) -> Vec<f32> {
+/// evaluated) on the new corners. Errors when the system cannot give their
+/// memory.
+pub fn pad_values(grid: &Grid, values: &[f32]) -> crate::Result<Vec<f32>> {
     let big = padded(grid);
-    let mut out = vec![FAR; big.corner_count() as usize];
+    let mut out = crate::budget::filled(
+        || format!("the capped samples of {} corners", big.corner_count()),
+        big.corner_count(),
+        FAR,
+    )?;
     let c = grid.corners();
     for z in 0..c.z {
         for y in 0..c.y {
@@ -90,7 +95,7 @@ pub fn pad_values(grid: &Grid, values: &[f32]) -> Vec<f32> {
             out[to..to + c.x as usize].copy_from_slice(&values[from..from + c.x as usize]);
         }
     }
-    out
+    Ok(out)
 }
 
 /// The caps of a [`padded`] grid: which corners are the added ones, and the
@@ -195,7 +200,7 @@ mod tests {
         let g = Grid::cube(1.0, 4);
         let values: Vec<f32> = (0..g.corner_count()).map(|i| i as f32 - 60.0).collect();
         let big = padded(&g);
-        let v = pad_values(&g, &values);
+        let v = pad_values(&g, &values).unwrap();
         assert_eq!(big.cells, UVec3::splat(6));
         assert_eq!(big.corner_pos(UVec3::ONE), g.corner_pos(UVec3::ZERO));
         assert_eq!(

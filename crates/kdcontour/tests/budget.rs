@@ -50,7 +50,7 @@ fn a_small_budget_refuses_a_volume_before_reading_it() {
     assert!(e.contains("longer than 2000000 bytes"), "{e}");
     // NIfTI: the header's volume, after inflation, against the budget.
     let nii = tmp("head.nii.gz");
-    volume::write_nifti(&nii, &volume::phantom(32)).unwrap();
+    volume::write_nifti(&nii, &volume::phantom(32).unwrap()).unwrap();
     let e = volume::load_nifti_within(&nii, 1.5, Inside::Above, Budget::bytes(100_000));
     over(e.unwrap_err(), "32x32x32 voxels", "97.7 KiB");
     let vol = volume::load_nifti(&nii, 1.5, Inside::Above).unwrap();
@@ -171,7 +171,7 @@ fn the_default_budget_meshes_the_normal_inputs() {
     assert_eq!(s.memory_budget, Budget::DEFAULT);
     assert_eq!(s.memory_budget.get(), 4 << 30);
     let nii = tmp("normal.nii");
-    volume::write_nifti(&nii, &volume::phantom(48)).unwrap();
+    volume::write_nifti(&nii, &volume::phantom(48).unwrap()).unwrap();
     let input = Input::volume(&nii, volume::load_nifti(&nii, 1.5, Inside::Above).unwrap());
     let grid = input.grid(48).unwrap();
     let left = Settings {

@@ -202,7 +202,7 @@ fn a_scan_has_no_zero_area_or_overlapping_face() {
     // toward their mass points, `hermite::vertex`; 0, 0 and 69 after). Its
     // flipped count (about 1,500) stays: Marching Cubes has as many, from the
     // volume's gradient across shells thinner than a voxel.
-    let vol = kdcontour::io::volume::phantom(64);
+    let vol = kdcontour::io::volume::phantom(64).unwrap();
     let (lo, hi) = vol.bounds();
     let grid = Grid::fit(lo, hi, 64);
     let tree = KdTree::build(&vol, &grid, &Settings::default()).unwrap();

@@ -301,19 +301,35 @@ fn a_failed_save_leaves_the_existing_file_alone() {
 #[test]
 fn nifti_is_written_only_under_a_nifti_name() {
     let raw = tmp("p.raw");
-    let e = volume::write_nifti(&raw, &volume::phantom(8))
+    let e = volume::write_nifti(&raw, &volume::phantom(8).unwrap())
         .unwrap_err()
         .to_string();
     assert!(e.contains(".nii or .nii.gz"), "{e}");
     assert!(!raw.exists());
     let upper = tmp("P.NII.GZ");
-    volume::write_nifti(&upper, &volume::phantom(8)).unwrap();
+    volume::write_nifti(&upper, &volume::phantom(8).unwrap()).unwrap();
     let vol = volume::load_nifti(&upper, 1.5, Inside::Above).unwrap();
     assert_eq!(vol.dims, UVec3::splat(8));
     // Too few voxels are raised to 2 per axis (0 used to underflow), all finite.
-    let tiny = volume::phantom(0);
+    let tiny = volume::phantom(0).unwrap();
     assert_eq!(tiny.dims, UVec3::splat(2));
     assert!(tiny.data.iter().all(|v| v.is_finite()));
+    // More voxels than memory can hold (or than a u64 counts): an error that
+    // names them, not an abort.
+    for n in [1 << 20, u32::MAX] {
+        for scanned in [false, true] {
+            let made = if scanned {
+                volume::phantom_scanned(n)
+            } else {
+                volume::phantom(n)
+            };
+            let Err(e) = made else {
+                panic!("a phantom of {n}^3 voxels was made");
+            };
+            let e = e.to_string();
+            assert!(e.contains(&format!("the phantom's {n}^3 voxels")), "{e}");
+        }
+    }
 }
 
 #[test]

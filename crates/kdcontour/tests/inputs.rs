@@ -47,7 +47,7 @@ fn check_all_meshers(field: &dyn Field, grid: &Grid) -> i64 {
 
 #[test]
 fn phantom_round_trips_through_nifti_and_gzip_and_meshes_closed() {
-    let vol = volume::phantom(40);
+    let vol = volume::phantom(40).unwrap();
     for name in ["p.nii", "p.nii.gz"] {
         let path = tmp(name);
         volume::write_nifti(&path, &vol).unwrap();
@@ -68,8 +68,8 @@ fn phantom_round_trips_through_nifti_and_gzip_and_meshes_closed() {
 fn every_phantom_meshes_at_its_own_iso() {
     for n in (2..=24).chain([31, 32, 48, 64]) {
         for (vol, kind) in [
-            (volume::phantom(n), "phantom"),
-            (volume::phantom_scanned(n), "scanned"),
+            (volume::phantom(n).unwrap(), "phantom"),
+            (volume::phantom_scanned(n).unwrap(), "scanned"),
         ] {
             let path = tmp(&format!("iso-{kind}-{n}.nii"));
             volume::write_nifti(&path, &vol).unwrap();
@@ -188,7 +188,7 @@ fn raw_volumes_of_every_type() {
 
 #[test]
 fn broken_nifti_files() {
-    let vol = volume::phantom(8);
+    let vol = volume::phantom(8).unwrap();
     let path = tmp("b.nii");
     volume::write_nifti(&path, &vol).unwrap();
     let good = std::fs::read(&path).unwrap();

@@ -95,7 +95,7 @@ fn both(vol: SampledVolume) -> (Vec<f32>, Vec<f32>) {
 fn neighbouring_normals_on_the_phantom_skull_turn_smoothly() {
     // The phantom as `kdcontour phantom` writes it by default (each voxel the
     // density at its center), at one cell per voxel.
-    let (new_a, old_a) = both(phantom(128));
+    let (new_a, old_a) = both(phantom(128).unwrap());
     let (new_mean, new_p95, new_max) = summary(&new_a);
     let (old_mean, old_p95, old_max) = summary(&old_a);
     println!(
@@ -123,7 +123,7 @@ const PARTIAL_MAX_BOUND: f32 = 14.0;
 
 #[test]
 fn the_scanned_phantom_holds_partial_volumes_and_its_skull_is_smooth() {
-    let vol = phantom_scanned(128);
+    let vol = phantom_scanned(128).unwrap();
     // Voxels the skull's surface crosses hold a share of its density: many
     // values between the outside's (about 0) and the bone's (about 2).
     let between = vol.data.iter().filter(|v| (0.2..1.8).contains(*v)).count();

@@ -174,7 +174,7 @@ impl Hermite {
         if settings.boundary == Boundary::Capped && boundary::reaches_faces(grid, &values) {
             let big = boundary::padded(grid);
             check_grid(&big, settings)?;
-            let values = boundary::pad_values(grid, &values);
+            let values = boundary::pad_values(grid, &values)?;
             let cap = Cap { cells: big.cells };
             return Hermite::build(field, &big, &values, settings, Some((cap, *grid)));
         }

@@ -245,7 +245,7 @@ mod tests {
 
     #[test]
     fn volumes_are_fitted_to_their_voxels() {
-        let vol = phantom(9);
+        let vol = phantom(9).unwrap();
         let (lo, hi) = vol.bounds();
         let input = Input::volume(Path::new("head.nii"), vol);
         assert_eq!(input.name, "head.nii");

@@ -283,13 +283,14 @@ fn coverage(r: Vec3, axes: Vec3, step: f32) -> f32 {
 /// scan); [`phantom_scanned`] holds each voxel's partial volume instead.
 ///
 /// `n` is at least 2 (smaller values are raised to 2, the fewest voxels a volume
-/// has per axis).
-pub fn phantom(n: u32) -> SampledVolume {
-    let vol = shepp_logan(n, false);
-    SampledVolume {
+/// has per axis). Errors ([`crate::Error::Allocation`]) when the system cannot
+/// give the voxels' memory.
+pub fn phantom(n: u32) -> crate::Result<SampledVolume> {
+    let vol = shepp_logan(n, false)?;
+    Ok(SampledVolume {
         iso: skull_iso(&vol.data, 1.5),
         ..vol
-    }
+    })
 }
 
 /// [`phantom`] as a scanner measures it: each voxel holds the density averaged
@@ -305,13 +306,13 @@ pub fn phantom(n: u32) -> SampledVolume {
 /// skull is whole (two closed surfaces, Euler characteristic 4) at 96 and 128
 /// voxels; at 64 it needs 1.2, and below that a coarse scan's holes remain.
 /// Scans too coarse for any voxel to reach 1.3 come with a lower iso their
-/// voxels hold (see `skull_iso`).
-pub fn phantom_scanned(n: u32) -> SampledVolume {
-    let vol = shepp_logan(n, true);
-    SampledVolume {
+/// voxels hold (see `skull_iso`). Errors as [`phantom`] does.
+pub fn phantom_scanned(n: u32) -> crate::Result<SampledVolume> {
+    let vol = shepp_logan(n, true)?;
+    Ok(SampledVolume {
         iso: skull_iso(&vol.data, PHANTOM_SCANNED_ISO),
         ..vol
-    }
+    })
 }
 
 /// The iso value of [`phantom_scanned`]'s skull where its voxels reach it.
@@ -342,7 +343,7 @@ fn skull_iso(data: &[f32], preferred: f32) -> f32 {
 }
 
 /// [`phantom`] or, with `partial`, [`phantom_scanned`].
-fn shepp_logan(n: u32, partial: bool) -> SampledVolume {
+fn shepp_logan(n: u32, partial: bool) -> crate::Result<SampledVolume> {
     let n = n.max(2);
     // (semi-axes a, b, c; center x, y, z; rotation about z in degrees; density)
     const E: [[f32; 8]; 10] = [
@@ -358,7 +359,17 @@ fn shepp_logan(n: u32, partial: bool) -> SampledVolume {
         [0.023, 0.046, 0.02, 0.06, -0.605, 0.0, 0.0, 0.01],
     ];
     let step = 2.0 / (n - 1) as f32;
-    let mut data = Vec::with_capacity((n as usize).pow(3));
+    let voxels = (n as u64).checked_pow(3);
+    let mut data = Vec::new();
+    let reserved = voxels
+        .and_then(|v| usize::try_from(v).ok())
+        .is_some_and(|v| data.try_reserve_exact(v).is_ok());
+    if !reserved {
+        return Err(crate::Error::Allocation {
+            what: format!("the phantom's {n}^3 voxels"),
+            needed: voxels.unwrap_or(u64::MAX).saturating_mul(4),
+        });
+    }
     for z in 0..n {
         for y in 0..n {
             for x in 0..n {
@@ -386,12 +397,12 @@ fn shepp_logan(n: u32, partial: bool) -> SampledVolume {
             }
         }
     }
-    SampledVolume {
+    Ok(SampledVolume {
         dims: UVec3::splat(n),
         spacing: Vec3::splat(step),
         origin: Vec3::splat(-1.0),
         data,
         iso: 1.5,
         inside: Inside::Above,
-    }
+    })
 }
