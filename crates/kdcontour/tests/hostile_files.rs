@@ -314,6 +314,10 @@ fn nifti_is_written_only_under_a_nifti_name() {
     let tiny = volume::phantom(0).unwrap();
     assert_eq!(tiny.dims, UVec3::splat(2));
     assert!(tiny.data.iter().all(|v| v.is_finite()));
+}
+
+#[test]
+fn a_phantom_too_large_for_memory_is_an_error() {
     // More voxels than memory can hold (or than a u64 counts): an error that
     // names them, not an abort.
     for n in [1 << 20, u32::MAX] {
