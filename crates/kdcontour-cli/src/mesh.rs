@@ -6,7 +6,7 @@ use crate::output::{json_line, print_checks};
 use crate::progress::Progress;
 use kdcontour::meshers::{self, Mesher, Timings};
 use kdcontour::validate::validate_with;
-use kdcontour::{Field, Grid, IndexedMesh, KdTree, Partition, Settings};
+use kdcontour::{pipeline, Field, Grid, IndexedMesh, KdTree, Partition, Settings};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -109,7 +109,8 @@ pub fn run(args: Mesh) -> Result<(), String> {
 }
 
 /// Meshes `field` with `mesher`: the trees through [`KdTree::build`] (returned,
-/// for their size), the uniform meshers through [`meshers::run`].
+/// for their size), below threshold 0 at full resolution with no tree
+/// ([`pipeline::full_from`]), the uniform meshers through [`meshers::run`].
 fn make(
     mesher: Mesher,
     field: &dyn Field,
@@ -136,6 +137,25 @@ fn make(
             return Ok((mesh, times, None));
         }
     };
+    if threshold < 0.0 {
+        // Full resolution: every cell is its own leaf, and the tree's mesh is
+        // the Hermite data's quads; no tree is built (`pipeline::full`, whose
+        // crossings skip the materials only a tree's clustering reads).
+        let cells_only = Settings {
+            material_borders: false,
+            ..settings.clone()
+        };
+        let sampled = meshers::sample(field, grid, &cells_only)?;
+        progress.stage("meshing at full resolution".to_string());
+        let t = Instant::now();
+        let mesh = settings.run(|| pipeline::full_from(&sampled.hermite, field, settings))?;
+        let times = Timings {
+            sample_ms: sampled.sample_ms,
+            build_ms: 0.0,
+            contour_ms: t.elapsed().as_secs_f64() * 1e3,
+        };
+        return Ok((mesh, times, None));
+    }
     let settings = Settings {
         partition,
         ..settings.clone()

@@ -1,79 +1,98 @@
 //! Uniform Dual Marching Cubes straight from the Hermite data: one vertex per cell
-//! patch (the Hermite data's patch vertices), one quad per crossing edge. It shares no
-//! code with the k-d tree walk and serves as the oracle for threshold < 0. Vertices and normals are stored in the
-//! k-d tree's packed form ([`Comp::pack`]), so both give bitwise the same positions.
+//! patch (the Hermite data's patch vertices), one quad per crossing edge whose four
+//! cells are in the grid. It is the mesh at full resolution, every cell its own
+//! leaf: the mesh a k-d tree gives at a threshold below zero, without building
+//! the tree ([`crate::pipeline::full`]). It shares no code with the tree's
+//! contouring and serves as its oracle there. Vertices and normals are stored in
+//! the tree's packed form ([`Comp::pack`]), so both give bitwise the same
+//! positions.
+//!
+//! The work follows the surface: the quads are the Hermite data's crossings
+//! ([`crate::hermite::Hermite::dual`]), the vertices the patches they use, in
+//! patch order; both are made in parallel and come out in the same order on any
+//! number of threads.
 
-use crate::cell::{edge_index, CellTables};
 use crate::comp::Comp;
 use crate::hermite::Hermite;
-use crate::mesh::IndexedMesh;
+use crate::mesh::{quad_split, IndexedMesh};
 use glam::Vec3;
+use rayon::prelude::*;
 
-/// Meshes `h` with uniform Dual Marching Cubes.
+/// Meshes `h` with uniform Dual Marching Cubes. Only the patches some quad uses
+/// become vertices (a patch whose crossings all lie on the grid's boundary has
+/// none).
 pub fn uniform_dmc(h: &Hermite) -> IndexedMesh {
-    let tables = CellTables::get();
-    let n = h.grid.cells;
+    let patches = h.patch_vertex.len();
+    let four = |d: &[u32; 4]| !d.contains(&u32::MAX);
+    let mut used = vec![false; patches];
+    for d in h.dual.iter().filter(|d| four(d)) {
+        for &p in d {
+            used[p as usize] = true;
+        }
+    }
+    let tables = crate::cell::CellTables::get();
+    // (patch, world position, normal) of every used patch, in patch order.
+    let vertices: Vec<(u32, Vec3, Vec3)> = h
+        .cells
+        .par_iter()
+        .flat_map_iter(|c| {
+            let lo = Vec3::from_array(c.coord.map(f32::from));
+            let count = tables.cell(c.config, c.mask).count as u32;
+            (c.patch_base..c.patch_base + count)
+                .filter(|&p| used[p as usize])
+                .map(move |p| {
+                    let i = p as usize;
+                    let packed =
+                        Comp::pack(h.patch_vertex[i], h.patch_normal[i], lo, lo + Vec3::ONE, 0);
+                    (
+                        p,
+                        h.grid.to_world(packed.position(lo, lo + Vec3::ONE)),
+                        packed.normal(),
+                    )
+                })
+        })
+        .collect();
+    let mut index = vec![u32::MAX; patches];
     let mut mesh = IndexedMesh::default();
-    for c in &h.cells {
-        let lo = Vec3::new(c.coord[0] as f32, c.coord[1] as f32, c.coord[2] as f32);
-        for k in 0..tables.cell(c.config, c.mask).count as usize {
-            let p = c.patch_base as usize + k;
-            let packed = Comp::pack(h.patch_vertex[p], h.patch_normal[p], lo, lo + Vec3::ONE, 0);
-            mesh.positions
-                .push(h.grid.to_world(packed.position(lo, lo + Vec3::ONE)));
-            mesh.normals.push(packed.normal());
-        }
+    mesh.positions.reserve_exact(vertices.len());
+    mesh.normals.reserve_exact(vertices.len());
+    for (k, &(p, pos, normal)) in vertices.iter().enumerate() {
+        index[p as usize] = k as u32;
+        mesh.positions.push(pos);
+        mesh.normals.push(normal);
     }
-    let find = |c: [u32; 3]| {
-        let key = (c[2], c[1], c[0]);
-        h.cells
-            .binary_search_by(|a| {
-                (a.coord[2] as u32, a.coord[1] as u32, a.coord[0] as u32).cmp(&key)
-            })
-            .ok()
-    };
+    // Each quad as the mesh splits it (`IndexedMesh::push_polygon_facing`: four
+    // distinct cells give four distinct vertices).
     let corners = h.grid.corners();
-    for z in 0..corners.z {
-        for y in 0..corners.y {
-            for x in 0..corners.x {
-                let g = [x, y, z];
-                for d in 0..3 {
-                    if g[d] >= n[d] {
-                        continue;
-                    }
-                    let mut e = g;
-                    e[d] += 1;
-                    let inside_low = !h.is_outside(g);
-                    if inside_low != h.is_outside(e) {
-                        continue;
-                    }
-                    let (u, v) = ((d + 1) % 3, (d + 2) % 3);
-                    if g[u] == 0 || g[v] == 0 || g[u] >= n[u] || g[v] >= n[v] {
-                        continue; // on the grid boundary: an open edge
-                    }
-                    let mut ids = [0u32; 4];
-                    for (q, (qu, qv)) in [(0u32, 0u32), (1, 0), (1, 1), (0, 1)]
-                        .into_iter()
-                        .enumerate()
-                    {
-                        let mut c = g;
-                        c[u] = g[u] + qu - 1;
-                        c[v] = g[v] + qv - 1;
-                        let cell = h.cells[find(c).expect("cells around a crossing are active")];
-                        let comp = tables.cell(cell.config, cell.mask).edge_comp
-                            [edge_index(d, 1 - qu, 1 - qv)];
-                        ids[q] = cell.patch_base + comp as u32;
-                    }
-                    let mut facing = glam::Vec3::ZERO;
-                    facing[d] = 1.0;
-                    if !inside_low {
-                        ids.reverse();
-                        facing = -facing;
-                    }
-                    mesh.push_polygon_facing(ids, facing);
-                }
+    let (positions, normals) = (&mesh.positions, &mesh.normals);
+    let triangles: Vec<[u32; 6]> = h
+        .edges
+        .par_iter()
+        .zip(&h.dual)
+        .filter(|(_, d)| four(d))
+        .map(|(e, d)| {
+            let axis = (e.key % 3) as usize;
+            let c = e.key / 3;
+            let cx = corners.x as u64;
+            let cy = corners.y as u64;
+            let low = [c % cx, c / cx % cy, c / (cx * cy)].map(|v| v as u32);
+            let mut ids = d.map(|p| index[p as usize]);
+            let mut facing = Vec3::ZERO;
+            facing[axis] = 1.0;
+            if h.is_outside(low) {
+                ids.reverse();
+                facing = -facing;
             }
-        }
-    }
+            let [a, b] = quad_split(
+                ids.map(|i| positions[i as usize]),
+                ids.map(|i| normals[i as usize]),
+                facing,
+            );
+            [
+                ids[a[0]], ids[a[1]], ids[a[2]], ids[b[0]], ids[b[1]], ids[b[2]],
+            ]
+        })
+        .collect();
+    mesh.indices = triangles.into_iter().flatten().collect();
     mesh
 }

@@ -29,7 +29,10 @@
 //! [`mesh`](mod@mesh) beside. [`settings`] (with the memory [`budget`]) and
 //! [`error`] sit below them all. The chunk pipeline (samples -> Hermite data ->
 //! tree -> paint -> extract) is written once, in [`pipeline`]: [`KdTree::build`]
-//! runs it over a grid, a [`World`]'s chunks over their own grids.
+//! runs it over a grid, a [`World`]'s chunks over their own grids. At full
+//! resolution (every cell its own leaf) no tree is needed: [`pipeline::full`]
+//! gives the mesh a tree gives below threshold 0 straight from the Hermite data,
+//! in the time of sampling and the Hermite data alone.
 //!
 //! ## Inputs and baselines
 //! - Fields: [`field::sdf`] primitives, [`field::csg`] trees and JSON scene files,

@@ -10,12 +10,17 @@
 //!    to the field by the fold guard, its components painted with the field's
 //!    materials when it has them;
 //! 3. [`KdTree::extract`]: the mesh at a threshold, as often as wanted.
+//!
+//! At full resolution every cell is its own leaf and no tree is needed: [`full`]
+//! gives the mesh a tree gives at a threshold below zero straight from the
+//! Hermite data (uniform Dual Marching Cubes, [`crate::dmc`]).
 
 use crate::error::Result;
 use crate::field::Field;
 use crate::grid::Grid;
 use crate::hermite::Hermite;
 use crate::kdtree::{build_in, BuildStats, KdTree};
+use crate::mesh::IndexedMesh;
 use crate::settings::Settings;
 use std::time::Instant;
 
@@ -54,6 +59,33 @@ pub fn tree(h: &Hermite, field: &dyn Field, settings: &Settings, cells: Cells) -
     let mut tree = build_in(h, field, settings.partition, lo, hi);
     crate::kdtree::paint_tree(&mut tree, field, settings);
     tree
+}
+
+/// The mesh at full resolution, every cell its own leaf: the mesh
+/// `KdTree::build(field, grid, settings)?.mesh(-1.0)` gives (the same vertices,
+/// normals, materials and triangles; the order may differ), from stage 1 and
+/// the Hermite data's quads ([`crate::dmc::uniform_dmc`]) without building a
+/// tree. The vertices carry the field's materials when it has them and
+/// `settings.materials` is on. (Material borders matter only to a tree's
+/// clustering, so the crossings' materials are not read.)
+pub fn full(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<IndexedMesh> {
+    settings.run(|| {
+        let cells_only = Settings {
+            material_borders: false,
+            ..settings.clone()
+        };
+        let h = hermite(field, grid, &cells_only)?;
+        Ok(full_from(&h, field, settings))
+    })?
+}
+
+/// [`full`] from Hermite data already computed (`h`, sampled from `field`).
+pub fn full_from(h: &Hermite, field: &dyn Field, settings: &Settings) -> IndexedMesh {
+    let mut mesh = crate::dmc::uniform_dmc(h);
+    if settings.materials {
+        crate::material::attach(&mut mesh, field);
+    }
+    mesh
 }
 
 impl KdTree {

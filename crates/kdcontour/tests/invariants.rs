@@ -3,7 +3,7 @@
 //! count never growing with the threshold, re-extraction equal to a fresh build,
 //! threshold < 0 equal to uniform DMC, one thread equal to many.
 
-use kdcontour::{dmc, hermite, scenes, validate, Grid, IndexedMesh, KdTree, Settings};
+use kdcontour::{dmc, hermite, pipeline, scenes, validate, Grid, IndexedMesh, KdTree, Settings};
 
 const THRESHOLDS: [f32; 5] = [-1.0, 0.001, 0.01, 0.1, 1.0];
 
@@ -81,6 +81,85 @@ fn negative_threshold_is_uniform_dmc() {
         let m = tree.mesh(-1.0);
         assert_eq!(m.triangle_count(), oracle.triangle_count(), "{name}");
         assert!(canonical(&m) == canonical(&oracle), "{name}: meshes differ");
+    }
+}
+
+/// Every used vertex's position, normal and material (bits), sorted (two
+/// patches may share a position).
+fn vertex_table(m: &IndexedMesh) -> Vec<([u32; 3], Vec<u32>, Vec<u32>)> {
+    let mut used = vec![false; m.positions.len()];
+    for &i in &m.indices {
+        used[i as usize] = true;
+    }
+    let mut table: Vec<_> = (0..m.positions.len())
+        .filter(|&i| used[i])
+        .map(|i| {
+            let n = m.normals[i].to_array().map(f32::to_bits).to_vec();
+            let mat = m.materials.get(i).map_or(Vec::new(), |b| {
+                b.ids
+                    .iter()
+                    .map(|&x| x as u32)
+                    .chain(b.weights.iter().map(|w| w.to_bits()))
+                    .collect()
+            });
+            (m.positions[i].to_array().map(f32::to_bits), n, mat)
+        })
+        .collect();
+    table.sort();
+    table
+}
+
+#[test]
+fn full_resolution_is_the_trees_mesh_below_zero_without_a_tree() {
+    // Materials (terrain, caves, csg_mix's parts), a capped grid's padded one
+    // (the box scene reaches the grid's faces), and a grid large enough for
+    // parallel work; one thread and four give the same mesh index for index.
+    for (name, res) in [
+        ("terrain", 40),
+        ("caves", 48),
+        ("csg_mix", 40),
+        ("sphere", 72),
+    ] {
+        let scene = scenes::scene(name).unwrap();
+        let grid = Grid::cube(1.0, res);
+        for boundary in [kdcontour::Boundary::Open, kdcontour::Boundary::Capped] {
+            let one = Settings {
+                threads: 1,
+                boundary,
+                ..Default::default()
+            };
+            let many = Settings {
+                threads: 4,
+                ..one.clone()
+            };
+            let full = pipeline::full(&*scene.field, &grid, &one).unwrap();
+            let tree = KdTree::build(&*scene.field, &grid, &one)
+                .unwrap()
+                .mesh(-1.0);
+            let what = format!("{name} res {res} {boundary:?}");
+            assert_eq!(full.triangle_count(), tree.triangle_count(), "{what}");
+            assert!(
+                canonical(&full) == canonical(&tree),
+                "{what}: triangles differ"
+            );
+            assert!(
+                vertex_table(&full) == vertex_table(&tree),
+                "{what}: normals or materials differ"
+            );
+            assert_eq!(
+                full.materials.is_empty(),
+                !scene.field.has_materials(),
+                "{what}"
+            );
+            let r = validate(&full, Some((&*scene.field, grid.cell_size)));
+            assert!(
+                r.is_closed_manifold() || boundary == kdcontour::Boundary::Open,
+                "{what}: {r:?}"
+            );
+            let again = pipeline::full(&*scene.field, &grid, &many).unwrap();
+            assert_eq!(full.positions, again.positions, "{what}: threads differ");
+            assert_eq!(full.indices, again.indices, "{what}: threads differ");
+        }
     }
 }
 
