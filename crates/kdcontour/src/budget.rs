@@ -204,21 +204,26 @@ pub fn machine_limit() -> Option<(u64, &'static str)> {
         read("/proc/meminfo")
             .and_then(|t| meminfo_available(&t))
             .map(|b| (b, "the memory available and free swap")),
-        read("/proc/self/limits")
-            .and_then(|t| address_space_limit(&t))
-            .zip(read("/proc/self/status").and_then(|t| kib_field(&t, "VmSize:")))
-            .map(|(limit, used)| {
-                (
-                    limit.saturating_sub(used),
-                    "the process's address-space limit, ulimit -v",
-                )
-            }),
+        address_space_left().map(|left| (left, ADDRESS_SPACE)),
         read("/sys/fs/cgroup/memory.max")
             .and_then(|t| t.trim().parse::<u64>().ok())
             .zip(read("/sys/fs/cgroup/memory.current").and_then(|t| t.trim().parse::<u64>().ok()))
             .map(|(max, used)| (max.saturating_sub(used), "the control group's memory limit")),
     ];
     limits.into_iter().flatten().min_by_key(|l| l.0)
+}
+
+/// How [`machine_limit`] names the address-space limit.
+pub const ADDRESS_SPACE: &str = "the process's address-space limit, ulimit -v";
+
+/// What the process's address-space limit (`ulimit -v`) leaves it, in bytes;
+/// `None` when there is no limit (or no `/proc` to read it from). Thread
+/// stacks count against it when they are reserved, used or not.
+pub fn address_space_left() -> Option<u64> {
+    let read = |path: &str| std::fs::read_to_string(path).ok();
+    let limit = read("/proc/self/limits").and_then(|t| address_space_limit(&t))?;
+    let used = read("/proc/self/status").and_then(|t| kib_field(&t, "VmSize:"))?;
+    Some(limit.saturating_sub(used))
 }
 
 /// `MemAvailable` plus `SwapFree` of a `/proc/meminfo` text, in bytes.

@@ -60,6 +60,12 @@ impl Default for Settings {
     }
 }
 
+/// The stack of each worker thread [`Settings::run`] starts (Rust's default).
+const THREAD_STACK: u64 = 2 << 20;
+/// What a thread reserves besides its stack (guard page, signal stack), as
+/// [`Settings::run`] counts it.
+const THREAD_STACK_MARGIN: u64 = 256 << 10;
+
 impl Settings {
     /// Checks every setting's range.
     pub fn check(&self) -> Result<()> {
@@ -104,17 +110,31 @@ impl Settings {
                 }),
             });
         }
+        let refused = |why: String| Error::InvalidSetting {
+            name: "threads",
+            reason: format!(
+                "the system would not start {} worker threads ({why}): its limits on \
+                 memory or processes are too low for them; ask for fewer (0 uses one per core)",
+                self.threads
+            ),
+        };
+        // Stacks are reserved as threads start: checked first, so a limit they
+        // pass is an error here, not a thread that aborts the process when it
+        // cannot map its signal stack.
+        let stacks = self.threads as u64 * (THREAD_STACK + THREAD_STACK_MARGIN);
+        if let Some(left) = crate::budget::address_space_left().filter(|&l| stacks > l) {
+            return Err(refused(format!(
+                "their stacks reserve {} MiB and {} leaves {} MiB",
+                stacks >> 20,
+                crate::budget::ADDRESS_SPACE,
+                left >> 20
+            )));
+        }
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(self.threads)
+            .stack_size(THREAD_STACK as usize)
             .build()
-            .map_err(|e| Error::InvalidSetting {
-                name: "threads",
-                reason: format!(
-                    "the system would not start {} worker threads ({e}): its limits on \
-                     memory or processes are too low for them; ask for fewer (0 uses one per core)",
-                    self.threads
-                ),
-            })?;
+            .map_err(|e| refused(e.to_string()))?;
         Ok(pool.install(f))
     }
 }
