@@ -484,6 +484,12 @@ fn check_edge(
         if at == before {
             continue;
         }
+        // Two corners in one leaf stay in one leaf as the threshold grows (their
+        // paths above it are the same): once the polygon has collapsed to fewer
+        // than three corners, it never comes back.
+        if collapsed([0, 1, 2, 3].map(|q| s.ladders[q][at[q]])) {
+            break;
+        }
         // The corners that climbed at this threshold (to the merge that may fold).
         let mut climbed = [0, 1, 2, 3].map(|q| at[q] != before[q]);
         loop {
@@ -523,6 +529,15 @@ fn check_edge(
         }
     }
     cells
+}
+
+/// Whether the corners `at` (in quadrant order) are fewer than three distinct
+/// leaves: the edge has no polygon.
+fn collapsed(at: [Rung; 4]) -> bool {
+    (0..4)
+        .filter(|&i| (at[i].node, at[i].local) != (at[(i + 3) % 4].node, at[(i + 3) % 4].local))
+        .count()
+        < 3
 }
 
 /// Cells in a node's box.
