@@ -11,8 +11,8 @@
 //! it.
 //!
 //! Every patch starts at its minimiser. Each crossing edge with four cells around
-//! it tests its quad ([`quad_faces`]). The patches of a quad that folds step a
-//! quarter of the way from their minimiser toward their mass point (the mean of
+//! it tests its quad ([`quad_faces`]). The patches of a quad that folds step
+//! half of the way from their minimiser toward their mass point (the mean of
 //! their crossings, which lies on the surface's side of the cell), and the test
 //! repeats on the moved vertices, up to [`MAX_ROUNDS`] rounds. A step is taken
 //! back, and its patch moves no more, when it makes more triangles cross among
@@ -28,7 +28,9 @@
 //! at res 32 and 64 from 3,717 to 1,840 and crossing faces from 1,379 to 827.
 //! Held to the field with [`Facing`], flipped faces there went from 1,840 to 990
 //! (none left on the analytic and CSG scenes), crossing ones from 827 to 612,
-//! overlapping ones from 40 to 32 and zero-area ones from 10 to 0. What is left at other resolutions is where two
+//! overlapping ones from 40 to 32 and zero-area ones from 10 to 0. Steps of
+//! half the way instead of a quarter took flipped faces from 992 to 940 and
+//! crossing ones from 612 to 489, in half the rounds. What is left at other resolutions is where two
 //! surfaces pass within a fraction of a cell (csg_mix's capsule under its box,
 //! the gyroid's shell cut by its sphere) and the neighbours' vertices were
 //! clamped onto a shared face: no step toward the mass points unfolds them.
@@ -47,7 +49,7 @@ use rayon::prelude::*;
 /// The most rounds of stepping vertices toward their mass points.
 const MAX_ROUNDS: usize = 8;
 /// Steps from a patch's minimiser to its mass point.
-const STEPS: u8 = 4;
+const STEPS: u8 = 2;
 /// The step of a patch that stays where it is.
 const FROZEN: u8 = u8::MAX;
 /// A pair of quads whose count another quad's list holds.
