@@ -7,30 +7,78 @@
 //! the tree's packed form ([`Comp::pack`]), so both give bitwise the same
 //! positions.
 //!
-//! The work follows the surface: the quads are the Hermite data's crossings
-//! ([`crate::hermite::Hermite::dual`]), the vertices the patches they use, in
-//! patch order; both are made in parallel and come out in the same order on any
-//! number of threads.
+//! The work follows the surface: the quads are the Hermite data's crossings,
+//! each edge's four cells found in a table of the active cells by position, the
+//! vertices the patches they use, in patch order; all are made in parallel and
+//! come out in the same order on any number of threads.
 
+use crate::cell::{edge_index, CellTables, NO_COMP};
 use crate::comp::Comp;
-use crate::hermite::Hermite;
+use crate::hermite::{CellLookup, Hermite};
 use crate::mesh::{quad_split, IndexedMesh};
 use glam::Vec3;
 use rayon::prelude::*;
+
+/// The low corner and axis of the edge of Hermite key `key` on a grid of
+/// `corners` corners.
+fn edge_of(key: u64, corners: glam::UVec3) -> ([u32; 3], usize) {
+    let (c, cx, cy) = (key / 3, corners.x as u64, corners.y as u64);
+    (
+        [c % cx, c / cx % cy, c / (cx * cy)].map(|v| v as u32),
+        (key % 3) as usize,
+    )
+}
+
+/// The patches of the four cells around edge `g` along `a`, counter-clockwise
+/// about the axis from (u-, v-); `None` when a cell is past the grid (an open
+/// edge on its boundary).
+fn quad(h: &Hermite, lookup: &CellLookup, g: [u32; 3], a: usize) -> Option<[u32; 4]> {
+    let tables = CellTables::get();
+    let n = h.grid.cells;
+    let (u, v) = ((a + 1) % 3, (a + 2) % 3);
+    if g[u] == 0 || g[v] == 0 || g[u] >= n[u] || g[v] >= n[v] {
+        return None;
+    }
+    let mut ids = [0u32; 4];
+    for (q, (qu, qv)) in [(0u32, 0u32), (1, 0), (1, 1), (0, 1)]
+        .into_iter()
+        .enumerate()
+    {
+        let mut c = g;
+        c[u] = g[u] + qu - 1;
+        c[v] = g[v] + qv - 1;
+        let cell = h.cells[lookup.get(c) as usize];
+        let comp = tables.cell(cell.config, cell.mask).edge_comp[edge_index(a, 1 - qu, 1 - qv)];
+        debug_assert!(comp != NO_COMP, "a crossing edge crosses in its cells");
+        ids[q] = cell.patch_base + comp as u32;
+    }
+    Some(ids)
+}
 
 /// Meshes `h` with uniform Dual Marching Cubes. Only the patches some quad uses
 /// become vertices (a patch whose crossings all lie on the grid's boundary has
 /// none).
 pub fn uniform_dmc(h: &Hermite) -> IndexedMesh {
     let patches = h.patch_vertex.len();
-    let four = |d: &[u32; 4]| !d.contains(&u32::MAX);
+    let corners = h.grid.corners();
+    let lookup = CellLookup::new(&h.cells, h.grid.cells);
+    // (edge's low corner, axis, patches) of every quad, in the edges' order.
+    let quads: Vec<([u32; 3], usize, [u32; 4])> = h
+        .edges
+        .par_iter()
+        .filter_map(|e| {
+            let (g, a) = edge_of(e.key, corners);
+            quad(h, &lookup, g, a).map(|ids| (g, a, ids))
+        })
+        .collect();
+    drop(lookup);
     let mut used = vec![false; patches];
-    for d in h.dual.iter().filter(|d| four(d)) {
-        for &p in d {
+    for (_, _, ids) in &quads {
+        for &p in ids {
             used[p as usize] = true;
         }
     }
-    let tables = crate::cell::CellTables::get();
+    let tables = CellTables::get();
     // (patch, world position, normal) of every used patch, in patch order.
     let vertices: Vec<(u32, Vec3, Vec3)> = h
         .cells
@@ -63,20 +111,11 @@ pub fn uniform_dmc(h: &Hermite) -> IndexedMesh {
     }
     // Each quad as the mesh splits it (`IndexedMesh::push_polygon_facing`: four
     // distinct cells give four distinct vertices).
-    let corners = h.grid.corners();
     let (positions, normals) = (&mesh.positions, &mesh.normals);
-    let triangles: Vec<[u32; 6]> = h
-        .edges
+    let triangles: Vec<[u32; 6]> = quads
         .par_iter()
-        .zip(&h.dual)
-        .filter(|(_, d)| four(d))
-        .map(|(e, d)| {
-            let axis = (e.key % 3) as usize;
-            let c = e.key / 3;
-            let cx = corners.x as u64;
-            let cy = corners.y as u64;
-            let low = [c % cx, c / cx % cy, c / (cx * cy)].map(|v| v as u32);
-            let mut ids = d.map(|p| index[p as usize]);
+        .map(|&(low, axis, patches)| {
+            let mut ids = patches.map(|p| index[p as usize]);
             let mut facing = Vec3::ZERO;
             facing[axis] = 1.0;
             if h.is_outside(low) {

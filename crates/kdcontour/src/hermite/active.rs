@@ -103,15 +103,15 @@ pub(super) fn active_cells(
 }
 
 /// A cell's active index by its coordinates (`u32::MAX`: not active); dropped
-/// after the build.
-pub(super) struct CellLookup {
+/// after the build (uniform Dual Marching Cubes makes its own).
+pub(crate) struct CellLookup {
     lookup: Vec<u32>,
     n: UVec3,
 }
 
 impl CellLookup {
     /// The lookup of `cells` on a grid of `n` cells.
-    pub(super) fn new(cells: &[ActiveCell], n: UVec3) -> Self {
+    pub(crate) fn new(cells: &[ActiveCell], n: UVec3) -> Self {
         let count = n.x as usize * n.y as usize * n.z as usize;
         let mut lookup: Vec<u32> = Vec::with_capacity(count);
         lookup.par_extend(rayon::iter::repeat_n(u32::MAX, count));
@@ -128,7 +128,7 @@ impl CellLookup {
     }
 
     /// The active index of cell `c`, or `u32::MAX`.
-    pub(super) fn get(&self, c: [u32; 3]) -> u32 {
+    pub(crate) fn get(&self, c: [u32; 3]) -> u32 {
         self.lookup[self.lin(c)]
     }
 }

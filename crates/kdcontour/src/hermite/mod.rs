@@ -17,6 +17,7 @@ use glam::{UVec3, Vec3};
 use rayon::prelude::*;
 
 mod active;
+pub(crate) use active::CellLookup;
 mod crossing;
 mod patches;
 mod sample;
@@ -58,10 +59,6 @@ pub struct Hermite {
     pub(crate) crossings: usize,
     /// Every edge crossing, in a fixed order.
     pub(crate) edges: Vec<EdgeCrossing>,
-    /// Per crossing of `edges`: the patches of the four cells around its edge,
-    /// counter-clockwise about its axis from (u-, v-) (`u32::MAX` for a cell past
-    /// the grid): the edge's dual quad at full resolution.
-    pub(crate) dual: Vec<[u32; 4]>,
     /// Per active cell, when the field has materials and
     /// [`Settings::material_borders`] is on: the dominant material of every
     /// crossing on the edges of the active cells within one cell of it (the
@@ -240,7 +237,6 @@ impl Hermite {
             patch_vertex,
             crossings: p.crossings,
             edges: p.edges,
-            dual: p.dual,
             cell_material,
             capped,
         })

@@ -23,9 +23,6 @@ pub(super) struct Patches {
     pub(super) crossings: usize,
     /// Every edge crossing, in cell order.
     pub(super) edges: Vec<EdgeCrossing>,
-    /// Per crossing of `edges`: the patches of its four cells, counter-clockwise
-    /// about its axis ([`super::Hermite::dual`]).
-    pub(super) dual: Vec<[u32; 4]>,
     /// The dual quads of the crossings whose four cells are in the grid (forced
     /// crossings left out).
     pub(super) quads: Vec<vertex::DualQuad>,
@@ -52,7 +49,6 @@ pub(super) fn accumulate(
     let mut patch_normal = vec![Vec3::ZERO; patches as usize];
     let mut crossings = 0usize;
     let mut edges = Vec::new();
-    let mut dual = Vec::new();
     let mut quads = Vec::new();
     let mut own_material = if borders {
         vec![material::UNSET; cells.len()]
@@ -108,7 +104,6 @@ pub(super) fn accumulate(
                     }
                 }
             }
-            dual.push(quad);
             // A forced crossing's quad is not the field's surface (a halo
             // forced inside, a conformed face): its cells' vertices are not
             // judged by it.
@@ -132,7 +127,6 @@ pub(super) fn accumulate(
         normal: patch_normal,
         crossings,
         edges,
-        dual,
         quads,
         own_material,
     })
