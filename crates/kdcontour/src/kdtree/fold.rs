@@ -229,6 +229,8 @@ struct Links<'a> {
     node_of: Vec<u32>,
     /// Per node: its parent, or [`NONE`] for the root.
     up: Vec<u32>,
+    /// Per node: its depth (the root's is 0).
+    depth: Vec<u16>,
     /// Per node: whether it or one of its ancestors may be a leaf, climbing
     /// clusterable nodes only (as [`climb`] does): a cell whose parent has
     /// none is its own polygon corner at every threshold.
@@ -253,6 +255,7 @@ impl<'a> Links<'a> {
             rows,
             node_of: Vec::new(),
             up: Vec::new(),
+            depth: Vec::new(),
             reach: Vec::new(),
         };
         for (i, node) in tree.nodes.iter().enumerate() {
@@ -270,13 +273,18 @@ impl<'a> Links<'a> {
         }
         // Parents come after their children: top down is back to front.
         let mut reach = vec![false; tree.nodes.len()];
+        let mut depth = vec![0u16; tree.nodes.len()];
         for i in (0..tree.nodes.len()).rev() {
             let node = &tree.nodes[i];
             let above = up[i] != NONE && reach[up[i] as usize];
             reach[i] = node.clusterable && (node.leaf_ok || above);
+            if up[i] != NONE {
+                depth[i] = depth[up[i] as usize] + 1;
+            }
         }
         links.node_of = node_of;
         links.up = up;
+        links.depth = depth;
         links.reach = reach;
         links
     }
@@ -303,15 +311,25 @@ impl<'a> Links<'a> {
         self.index(c).map_or(NONE, |i| self.node_of[i])
     }
 
-    /// Sets `path` to the root-to-node path of `n`.
-    fn path(&self, n: u32, path: &mut Vec<u32>) {
-        path.clear();
-        let mut m = n;
-        while m != NONE {
-            path.push(m);
-            m = self.up[m as usize];
+    /// The depth of the deepest node above all of `cells` (tree nodes).
+    fn shared_depth(&self, cells: [u32; 4]) -> u16 {
+        let mut at = cells;
+        let target = at
+            .iter()
+            .map(|&n| self.depth[n as usize])
+            .min()
+            .expect("four");
+        for n in &mut at {
+            while self.depth[*n as usize] > target {
+                *n = self.up[*n as usize];
+            }
         }
-        path.reverse();
+        while at.iter().any(|&n| n != at[0]) {
+            for n in &mut at {
+                *n = self.up[*n as usize];
+            }
+        }
+        self.depth[at[0] as usize]
     }
 
     /// The patch of halo cell `i` (its index in the data) that edge `edge`
@@ -340,22 +358,26 @@ impl<'a> Links<'a> {
 /// Buffers one thread reuses from edge to edge.
 #[derive(Default)]
 struct Scratch {
-    /// Per quadrant: the root-to-cell path of its cell.
-    paths: [Vec<u32>; 4],
     ladders: [Vec<Rung>; 4],
     errors: Vec<f32>,
     /// The nodes this edge refused.
     refused: Vec<u32>,
 }
 
-/// Fills `rungs` with the nodes the corner of the edge in the cell at the end of
-/// `path` can be at some threshold, bottom up: the cell, then each ancestor that
-/// may be a leaf, up to the first that is not clusterable or the path's first
-/// `shared` nodes (which the edge's four cells all share: there its polygon has
-/// collapsed). `false` when the edge does not cross in the cell.
-fn climb(tree: &KdTree, path: &[u32], shared: usize, edge: usize, rungs: &mut Vec<Rung>) -> bool {
+/// Fills `rungs` with the nodes the corner of the edge in cell `n` can be at some
+/// threshold, bottom up: the cell, then each ancestor that may be a leaf, up to
+/// the first that is not clusterable or the first at depth `stop` or above
+/// (where the edge's four cells all meet, its polygon has collapsed; -1 climbs
+/// to the root). `false` when the edge does not cross in the cell.
+fn climb(
+    tree: &KdTree,
+    links: &Links,
+    n: u32,
+    stop: i32,
+    edge: usize,
+    rungs: &mut Vec<Rung>,
+) -> bool {
     rungs.clear();
-    let n = *path.last().expect("a cell");
     let leaf = &tree.nodes[n as usize];
     let mut local = CellTables::get().cell(leaf.config, leaf.mask).edge_comp[edge];
     if local == NO_COMP {
@@ -363,10 +385,8 @@ fn climb(tree: &KdTree, path: &[u32], shared: usize, edge: usize, rungs: &mut Ve
     }
     rungs.push(Rung::bare(n, local, f32::NEG_INFINITY));
     let mut child = n;
-    for &p in path[shared.min(path.len() - 1)..path.len() - 1]
-        .iter()
-        .rev()
-    {
+    let mut p = links.up[n as usize];
+    while p != NONE && links.depth[p as usize] as i32 > stop {
         let node = &tree.nodes[p as usize];
         if !node.clusterable {
             break;
@@ -376,6 +396,7 @@ fn climb(tree: &KdTree, path: &[u32], shared: usize, edge: usize, rungs: &mut Ve
             rungs.push(Rung::bare(p, local, node.error));
         }
         child = p;
+        p = links.up[p as usize];
     }
     true
 }
@@ -422,30 +443,21 @@ fn check_edge(
     if !reach {
         return [NONE; 4];
     }
-    for (q, &n) in cells.iter().enumerate() {
-        if n != NONE {
-            links.path(n, &mut s.paths[q]);
-        }
-    }
-    // The nodes all four cells share: above them the polygon has collapsed.
-    let shared = if cells.contains(&NONE) {
-        0
+    // Where the four cells meet (above it the polygon has collapsed); with a
+    // cell outside the tree, nowhere: climb to the root.
+    let stop = if cells.contains(&NONE) {
+        -1
     } else {
-        (1..4)
-            .map(|q| {
-                let (a, b) = (&s.paths[0], &s.paths[q]);
-                a.iter().zip(b.iter()).take_while(|(x, y)| x == y).count()
-            })
-            .min()
-            .unwrap_or(0)
+        links.shared_depth(cells) as i32
     };
     for (q, &(qu, qv)) in QUADRANT.iter().enumerate() {
         if halo_cells[q].is_some() {
             s.ladders[q].clear();
         } else if !climb(
             tree,
-            &s.paths[q],
-            shared,
+            links,
+            cells[q],
+            stop,
             edge_index(d, 1 - qu, 1 - qv),
             &mut s.ladders[q],
         ) {
