@@ -112,7 +112,7 @@ fn vertex_table(m: &IndexedMesh) -> Vec<([u32; 3], Vec<u32>, Vec<u32>)> {
 #[test]
 fn full_resolution_is_the_trees_mesh_below_zero_without_a_tree() {
     // Materials (terrain, caves, csg_mix's parts), a capped grid's padded one
-    // (the box scene reaches the grid's faces), and a grid large enough for
+    // (the terrain reaches the grid's faces), and a grid large enough for
     // parallel work; one thread and four give the same mesh index for index.
     for (name, res) in [
         ("terrain", 40),
