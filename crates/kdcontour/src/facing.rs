@@ -80,6 +80,14 @@ impl<'a> Facing<'a> {
         }
     }
 
+    /// Whether the mesh splits the quad of `p` (grid units, the contouring's
+    /// order) with vertex normals `n` along 0-2 ([`crate::mesh::quad_split`], on
+    /// the world coordinates the mesh will have).
+    pub fn takes_02(&self, p: [Vec3; 4], n: [Vec3; 4], facing: Vec3) -> bool {
+        let p = p.map(|x| self.grid.to_world(x));
+        QuadSplit::new(p, n, facing).takes_02(&p)
+    }
+
     /// The tests past facing its edge, on triangle `p` (world units) with
     /// vertex normals `n` and normal `cross` (unnormalised): it has more than
     /// zero area ([`Facing::sized`]), passes `also`, and is not flipped against

@@ -16,8 +16,8 @@
 //! their crossings, which lies on the surface's side of the cell), and the test
 //! repeats on the moved vertices, up to [`MAX_ROUNDS`] rounds. A step is taken
 //! back, and its patch moves no more, when it makes more triangles cross among
-//! the quads of the cells around it (both diagonals of each quad are counted,
-//! since the mesh's choice depends on rounded normals): where the minimisers of
+//! the quads of the cells around it (each quad split as the mesh will split it,
+//! by the vertices and normals the tree stores): where the minimisers of
 //! neighbouring cells were clamped onto a shared face, a move that unfolds one
 //! quad can push it through another. Sharp features are kept everywhere the
 //! quads around them do not fold.
@@ -30,7 +30,10 @@
 //! (none left on the analytic and CSG scenes), crossing ones from 827 to 612,
 //! overlapping ones from 40 to 32 and zero-area ones from 10 to 0. Steps of
 //! half the way instead of a quarter took flipped faces from 992 to 940 and
-//! crossing ones from 612 to 489, in half the rounds. What is left at other resolutions is where two
+//! crossing ones from 612 to 489, in half the rounds. Counting crossings on
+//! the diagonal the mesh takes instead of both took crossing faces from 489 to
+//! 473 and overlapping ones from 40 to 20 (flipped 940 to 945), and the loop's
+//! time on the demo's coarse chunks by 30-45%. What is left at other resolutions is where two
 //! surfaces pass within a fraction of a cell (csg_mix's capsule under its box,
 //! the gyroid's shell cut by its sphere) and the neighbours' vertices were
 //! clamped onto a shared face: no step toward the mass points unfolds them.
@@ -52,8 +55,6 @@ const MAX_ROUNDS: usize = 8;
 const STEPS: u8 = 2;
 /// The step of a patch that stays where it is.
 const FROZEN: u8 = u8::MAX;
-/// A pair of quads whose count another quad's list holds.
-const UNCOUNTED: u32 = u32::MAX;
 
 /// The dual quad of one crossing edge with four cells around it: their patches
 /// in the contouring's order (counter-clockwise about the edge's axis), and the
@@ -100,7 +101,11 @@ pub(super) fn cell_vertices(
         .enumerate()
         .map(|(p, &v)| stored(v, p))
         .collect();
-    let unit: Vec<Vec3> = normal.par_iter().map(|n| n.normalize_or_zero()).collect();
+    // Each patch's normal as the tree stores it (the mesh splits quads by it).
+    let unit: Vec<Vec3> = normal
+        .par_iter()
+        .map(|&n| Comp::pack(Vec3::ZERO, n, Vec3::ZERO, Vec3::ONE, 0).normal())
+        .collect();
     // How far each patch has moved from its minimiser toward its mass point, in
     // steps of 1 / STEPS; a patch whose step would make a crossing stays put
     // and moves no more (FROZEN).
@@ -159,7 +164,7 @@ pub(super) fn cell_vertices(
             }
             let placed: Vec<PlacedQuad> = used
                 .par_iter()
-                .map(|&q| place_quad(&quads[q as usize], vertex))
+                .map(|&q| place_quad(&quads[q as usize], vertex, &unit, facing))
                 .collect();
             (used, placed)
         };
@@ -278,14 +283,9 @@ impl Around {
     }
 
     /// For each patch `moving[i]` of `which`: how many pairs of triangles cross,
-    /// one of a quad around it and one of another quad of its `near[i]` (both
-    /// diagonals of every quad: the one the mesh takes depends on the normals
-    /// it rounds), each quad's triangles placed at `placed[slot[quad]]`.
-    ///
-    /// A folding quad moves all four of its corners, whose near quads overlap:
-    /// each quad around a patch is counted once against the union of its
-    /// patches' near quads (each pair of such quads once), and each patch's
-    /// count is summed from its quads' counts.
+    /// one of a quad around it and one of another quad of its `near[i]` (each
+    /// split as the mesh will split it), each quad's triangles placed at
+    /// `placed[slot[quad]]`.
     fn counts(
         &self,
         moving: &[u32],
@@ -294,111 +294,26 @@ impl Around {
         placed: &[PlacedQuad],
         slot: &[u32],
     ) -> Vec<usize> {
-        // (quad around a patch, the patch's index in `which`)
-        let mut sides: Vec<(u32, u32)> = which
-            .iter()
-            .enumerate()
-            .flat_map(|(j, &i)| self.of(moving[i]).iter().map(move |&q| (q, j as u32)))
-            .collect();
-        sides.sort_unstable();
-        let groups: Vec<&[(u32, u32)]> = sides.chunk_by(|a, b| a.0 == b.0).collect();
-        // Per quad: its group, or `UNCOUNTED`.
-        let mut group_of = vec![UNCOUNTED; slot.len()];
-        for (g, group) in groups.iter().enumerate() {
-            group_of[group[0].0 as usize] = g as u32;
-        }
-        // Per group, the quads it is counted against (sorted), with the count.
-        // A pair of quads both around moving patches is counted once, by the
-        // lower quad (`UNCOUNTED` until then).
-        let mut counted: Vec<Vec<(u32, u32)>> = groups
+        which
             .par_iter()
-            .map(|g| {
-                let q = g[0].0;
-                let mut against: Vec<u32> = g
+            .map(|&i| {
+                let near = &near[i];
+                self.of(moving[i])
                     .iter()
-                    .flat_map(|&(_, j)| near[which[j as usize]].iter().copied())
-                    .filter(|&r| r != q)
-                    .collect();
-                against.sort_unstable();
-                against.dedup();
-                against
-                    .iter()
-                    .map(|&r| {
-                        let n = if r < q && group_of[r as usize] != UNCOUNTED {
-                            UNCOUNTED
-                        } else {
-                            pair_crossings(placed, slot, q, r) as u32
-                        };
-                        (r, n)
+                    .map(|&q| {
+                        near.iter()
+                            .filter(|&&r| r != q)
+                            .map(|&r| pair_crossings(placed, slot, q, r))
+                            .sum::<usize>()
                     })
-                    .collect()
+                    .sum()
             })
-            .collect();
-        let lookup = |counted: &[Vec<(u32, u32)>], q: u32, r: u32| {
-            let against = &counted[group_of[q as usize] as usize];
-            let m = against.binary_search_by_key(&r, |c| c.0).ok()?;
-            Some(against[m].1).filter(|&n| n != UNCOUNTED)
-        };
-        let filled: Vec<Vec<u32>> = counted
-            .par_iter()
-            .zip(&groups)
-            .map(|(against, g)| {
-                let q = g[0].0;
-                against
-                    .iter()
-                    .filter(|c| c.1 == UNCOUNTED)
-                    .map(|&(r, _)| {
-                        lookup(&counted, r, q)
-                            .unwrap_or_else(|| pair_crossings(placed, slot, r, q) as u32)
-                    })
-                    .collect()
-            })
-            .collect();
-        for (against, filled) in counted.iter_mut().zip(filled) {
-            let mut filled = filled.into_iter();
-            for c in against.iter_mut().filter(|c| c.1 == UNCOUNTED) {
-                c.1 = filled.next().expect("one count per uncounted pair");
-            }
-        }
-        // Per group, each of its patches' share: its quad against the patch's
-        // near quads (all among the group's, read from a per-thread table
-        // indexed by quad).
-        let shares: Vec<(u32, usize)> = counted
-            .par_iter()
-            .zip(&groups)
-            .map_init(
-                || vec![0u32; slot.len()],
-                |count, (against, g)| {
-                    let q = g[0].0;
-                    for &(r, n) in against {
-                        count[r as usize] = n;
-                    }
-                    g.iter()
-                        .map(|&(_, j)| {
-                            let share = near[which[j as usize]]
-                                .iter()
-                                .filter(|&&r| r != q)
-                                .map(|&r| count[r as usize] as usize)
-                                .sum();
-                            (j, share)
-                        })
-                        .collect::<Vec<_>>()
-                },
-            )
-            .flatten_iter()
-            .collect();
-        let mut n = vec![0usize; which.len()];
-        for (j, share) in shares {
-            n[j as usize] += share;
-        }
-        n
+            .collect()
     }
 }
 
-/// The four triangles of a quad, both diagonals, as corners of it.
-const TRIANGLES: [[usize; 3]; 4] = [[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]];
-/// [`TRIANGLES`] as bits of the quad's corners.
-const TRIANGLE_MASKS: [u8; 4] = [0b0111, 0b1101, 0b1011, 0b1110];
+/// The two triangles of a quad split along 0-2, and along 1-3, as corners of it.
+const SPLITS: [[[usize; 3]; 2]; 2] = [[[0, 1, 2], [0, 2, 3]], [[0, 1, 3], [1, 2, 3]]];
 
 /// How many pairs of triangles cross, one of quad `q` and one of quad `r`,
 /// placed at `placed[slot[quad]]`. Two triangles with two corners in common
@@ -424,17 +339,17 @@ fn pair_crossings(placed: &[PlacedQuad], slot: &[u32], q: u32, r: u32) -> usize 
         area: crate::geometry::ZERO_AREA_CELLS2,
     };
     let mut n = 0;
-    for (ta, ca) in TRIANGLES.iter().enumerate() {
+    for (ta, ca) in a.triangles.iter().enumerate() {
         if !a.triangle_bounds[ta].meets(&b.bounds) {
             continue;
         }
         let shared_with = same[ca[0]] | same[ca[1]] | same[ca[2]];
         let pa = [a.corners[ca[0]], a.corners[ca[1]], a.corners[ca[2]]];
-        for (tb, cb) in TRIANGLES.iter().enumerate() {
+        for (tb, cb) in b.triangles.iter().enumerate() {
             if !a.triangle_bounds[ta].meets(&b.triangle_bounds[tb]) {
                 continue;
             }
-            let shared = shared_with & TRIANGLE_MASKS[tb];
+            let shared = shared_with & cb.iter().fold(0u8, |m, &c| m | 1 << c);
             if shared.count_ones() >= 2 {
                 continue;
             }
@@ -462,25 +377,32 @@ fn pair_crossings(placed: &[PlacedQuad], slot: &[u32], q: u32, r: u32) -> usize 
     n
 }
 
-/// A quad's four triangles (both diagonals, [`TRIANGLES`]): its corners and
-/// patches, each triangle's unit normal and box, and the box around them.
+/// A quad's two triangles as the mesh will split it ([`Facing::takes_02`]):
+/// its corners and patches, each triangle's corners, unit normal and box, and
+/// the box around them.
 struct PlacedQuad {
     corners: [DVec3; 4],
     patches: [u32; 4],
-    normals: [Option<DVec3>; 4],
-    triangle_bounds: [Bounds; 4],
+    triangles: [[usize; 3]; 2],
+    normals: [Option<DVec3>; 2],
+    triangle_bounds: [Bounds; 2],
     bounds: Bounds,
 }
 
-/// The four triangles of `quad` (both diagonals) with its patches at `vertex`.
-fn place_quad(quad: &DualQuad, vertex: &[Vec3]) -> PlacedQuad {
-    let v = quad.patches.map(|i| vertex[i as usize].as_dvec3());
+/// The two triangles of `quad` with its patches at `vertex` (normals `unit`),
+/// split as the mesh will split it.
+fn place_quad(quad: &DualQuad, vertex: &[Vec3], unit: &[Vec3], facing: &Facing) -> PlacedQuad {
+    let p = quad.patches.map(|i| vertex[i as usize]);
+    let n = quad.patches.map(|i| unit[i as usize]);
+    let triangles = SPLITS[!facing.takes_02(p, n, quad.facing) as usize];
+    let v = p.map(|x| x.as_dvec3());
     let tri = |t: [usize; 3]| t.map(|k| v[k]);
     PlacedQuad {
         corners: v,
         patches: quad.patches,
-        normals: TRIANGLES.map(|t| unit_normal(&tri(t))),
-        triangle_bounds: TRIANGLES.map(|t| {
+        triangles,
+        normals: triangles.map(|t| unit_normal(&tri(t))),
+        triangle_bounds: triangles.map(|t| {
             let t = tri(t);
             Bounds {
                 lo: t[0].min(t[1]).min(t[2]),
