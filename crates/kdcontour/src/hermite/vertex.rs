@@ -152,11 +152,22 @@ pub(super) fn cell_vertices(
             rounded[p] = stored(place(p, step[p]), p);
         }
         let around = around.get_or_insert_with(|| Around::new(quads, &cell_of, cells));
-        // Each moving patch's near quads, and every quad's triangles that a
-        // count reads placed once (a quad is near many moving patches).
-        let near: Vec<Vec<u32>> = moving.par_iter().map(|&p| around.near(p, quads)).collect();
-        let place_near = |which: &[usize], vertex: &[Vec3], slot: &mut [u32]| {
-            let mut used: Vec<u32> = which.iter().flat_map(|&i| &near[i]).copied().collect();
+        // The quads around the moving patches, each with the quads that share
+        // a cell with it (only those can cross it: a quad lies in its four
+        // cells), and every quad a count reads placed once.
+        let mut sides: Vec<u32> = moving.iter().flat_map(|&p| around.of(p)).copied().collect();
+        sides.sort_unstable();
+        sides.dedup();
+        let near: Vec<Vec<u32>> = sides.par_iter().map(|&q| around.near(q, quads)).collect();
+        // Per quad around a moving patch, how many pairs of its triangles and
+        // those of the quads near it cross, with the patches at `vertex`;
+        // each patch's count is the sum of its quads'.
+        let counts = |which: &[bool], vertex: &[Vec3], slot: &mut [u32]| {
+            let mut used: Vec<u32> = (0..sides.len())
+                .filter(|&i| which[i])
+                .flat_map(|i| &near[i])
+                .copied()
+                .collect();
             used.sort_unstable();
             used.dedup();
             for (i, &q) in used.iter().enumerate() {
@@ -166,27 +177,54 @@ pub(super) fn cell_vertices(
                 .par_iter()
                 .map(|&q| place_quad(&quads[q as usize], vertex, &unit, facing))
                 .collect();
-            (used, placed)
-        };
-
-        // Crossings after the step, and before it for the patches with any
-        // after it (see `Around::counts`).
-        let all: Vec<usize> = (0..moving.len()).collect();
-        let (used, after) = place_near(&all, &rounded, &mut slot);
-        let after_n = around.counts(&moving, &near, &all, &after, &slot);
-        for &q in &used {
-            slot[q as usize] = u32::MAX;
-        }
-        let crossed: Vec<usize> = all.iter().copied().filter(|&i| after_n[i] > 0).collect();
-        let mut crossing = vec![false; moving.len()];
-        if !crossed.is_empty() {
-            let (used, before) = place_near(&crossed, &prev, &mut slot);
-            let before_n = around.counts(&moving, &near, &crossed, &before, &slot);
+            let n: Vec<usize> = (0..sides.len())
+                .into_par_iter()
+                .map(|i| {
+                    if !which[i] {
+                        return 0;
+                    }
+                    let q = sides[i];
+                    near[i]
+                        .iter()
+                        .filter(|&&r| r != q)
+                        .map(|&r| pair_crossings(&placed, slot, q, r))
+                        .sum()
+                })
+                .collect();
             for &q in &used {
                 slot[q as usize] = u32::MAX;
             }
-            for (&i, b) in crossed.iter().zip(before_n) {
-                crossing[i] = after_n[i] > b;
+            n
+        };
+        let patch_count = |p: u32, n: &[usize]| -> usize {
+            around
+                .of(p)
+                .iter()
+                .map(|q| {
+                    n[sides
+                        .binary_search(q)
+                        .expect("a quad around a moving patch")]
+                })
+                .sum()
+        };
+
+        // Crossings after the step, and before it for the patches with any
+        // after it.
+        let after = counts(&vec![true; sides.len()], &rounded, &mut slot);
+        let after_n: Vec<usize> = moving.iter().map(|&p| patch_count(p, &after)).collect();
+        let mut crossing = vec![false; moving.len()];
+        if after_n.iter().any(|&n| n > 0) {
+            let mut which = vec![false; sides.len()];
+            for (&p, _) in moving.iter().zip(&after_n).filter(|(_, &n)| n > 0) {
+                for q in around.of(p) {
+                    which[sides
+                        .binary_search(q)
+                        .expect("a quad around a moving patch")] = true;
+                }
+            }
+            let before = counts(&which, &prev, &mut slot);
+            for (i, &p) in moving.iter().enumerate() {
+                crossing[i] = after_n[i] > 0 && after_n[i] > patch_count(p, &before);
             }
         }
         let mut stepped: Vec<u32> = Vec::with_capacity(moving.len());
@@ -266,49 +304,18 @@ impl Around {
         &self.quads[self.start[p as usize] as usize..self.start[p as usize + 1] as usize]
     }
 
-    /// The quads of every patch of the cells of the quads around patch `p` (a
-    /// cell's other patches are other sheets through it), `p`'s own among them.
-    fn near(&self, p: u32, quads: &[DualQuad]) -> Vec<u32> {
+    /// The quads of every patch of the cells of quad `q`'s patches (a cell's
+    /// other patches are other sheets through it), `q` among them.
+    fn near(&self, q: u32, quads: &[DualQuad]) -> Vec<u32> {
         let mut near: Vec<u32> = Vec::new();
-        for &q in self.of(p) {
-            for r in quads[q as usize].patches {
-                for c in self.cell_of(r) {
-                    near.extend_from_slice(self.of(c));
-                }
+        for r in quads[q as usize].patches {
+            for c in self.cell_of(r) {
+                near.extend_from_slice(self.of(c));
             }
         }
         near.sort_unstable();
         near.dedup();
         near
-    }
-
-    /// For each patch `moving[i]` of `which`: how many pairs of triangles cross,
-    /// one of a quad around it and one of another quad of its `near[i]` (each
-    /// split as the mesh will split it), each quad's triangles placed at
-    /// `placed[slot[quad]]`.
-    fn counts(
-        &self,
-        moving: &[u32],
-        near: &[Vec<u32>],
-        which: &[usize],
-        placed: &[PlacedQuad],
-        slot: &[u32],
-    ) -> Vec<usize> {
-        which
-            .par_iter()
-            .map(|&i| {
-                let near = &near[i];
-                self.of(moving[i])
-                    .iter()
-                    .map(|&q| {
-                        near.iter()
-                            .filter(|&&r| r != q)
-                            .map(|&r| pair_crossings(placed, slot, q, r))
-                            .sum::<usize>()
-                    })
-                    .sum()
-            })
-            .collect()
     }
 }
 
