@@ -242,13 +242,38 @@ fn level_changes_and_edits_rebuild_the_stale_chunks_and_stay_closed() {
     }
 }
 
-/// Counts the field's evaluations.
+/// Counts the field's evaluations (values, gradients and materials, one each).
 struct Counting<'a>(&'a dyn Field, std::sync::atomic::AtomicUsize);
+
+impl Counting<'_> {
+    fn count(&self) {
+        self.1.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    }
+}
 
 impl Field for Counting<'_> {
     fn value(&self, p: Vec3) -> f32 {
-        self.1.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.count();
         self.0.value(p)
+    }
+
+    fn gradient(&self, p: Vec3) -> Vec3 {
+        self.count();
+        self.0.gradient(p)
+    }
+
+    fn material(&self, p: Vec3) -> kdcontour::material::MaterialBlend {
+        self.count();
+        self.0.material(p)
+    }
+
+    fn material_with_gradient(&self, p: Vec3, g: Vec3) -> kdcontour::material::MaterialBlend {
+        self.count();
+        self.0.material_with_gradient(p, g)
+    }
+
+    fn has_materials(&self) -> bool {
+        self.0.has_materials()
     }
 }
 
@@ -301,6 +326,82 @@ fn a_chunk_whose_neighbour_changes_level_is_rebuilt_from_its_kept_samples() {
         "level change rebuilds: {} evaluations from kept samples, {} re-sampling",
         evaluations[0], evaluations[1]
     );
+}
+
+/// A kept chunk rebuilt for a neighbour's level change takes the crossings of
+/// the edges whose samples the level rules left as they were from its last
+/// build: the same tree as searching every edge again, with the field read
+/// only along the edges that changed.
+#[test]
+fn a_kept_chunk_searches_again_only_the_edges_whose_samples_changed() {
+    use std::sync::atomic::Ordering::Relaxed;
+    for name in ["gyroid", "caves"] {
+        let scene = scenes::scene(name).unwrap();
+        let field = &*scene.field;
+        let cell = 2.0 / (REGION as u32 * RES) as f32;
+        let mut w = World::new(
+            Vec3::splat(-1.0),
+            cell,
+            RES,
+            random_layout(5),
+            0.01,
+            Settings::default(),
+        )
+        .unwrap();
+        w.keep_samples = true;
+        w.build_all(field).unwrap();
+        let rebuilt: Vec<ChunkKey> = w
+            .set_layout(random_layout(6))
+            .unwrap()
+            .into_iter()
+            .filter(|k| random_layout(5).contains(k))
+            .collect();
+        let (mut with, mut without, mut kept, mut surface) = (0, 0, 0, 0);
+        for k in &rebuilt {
+            let b = w.chunk_build(k);
+            // Chunks kept without samples were proved one-signed (no surface).
+            let Some(crossings) = b.kept_crossings.clone() else {
+                assert!(
+                    b.kept.is_none(),
+                    "{name} {k:?}: samples kept, crossings not"
+                );
+                continue;
+            };
+            kept += crossings.len();
+            let counting = Counting(field, 0.into());
+            let reused = b.build(&counting).unwrap();
+            with += counting.1.swap(0, Relaxed);
+            let searched = kdcontour::world::ChunkBuild {
+                kept_crossings: None,
+                ..b.clone()
+            }
+            .build(&counting)
+            .unwrap();
+            without += counting.1.load(Relaxed);
+            assert!(
+                reused.tree == searched.tree,
+                "{name} {k:?}: the trees differ"
+            );
+            assert_eq!(
+                reused.crossings.as_ref().map(|c| c.len()),
+                searched.crossings.as_ref().map(|c| c.len()),
+                "{name} {k:?}"
+            );
+            surface += (!crossings.is_empty()) as usize;
+        }
+        println!(
+            "{name}: {} kept chunks rebuilt ({surface} with a surface, {kept} crossings kept): \
+             {with} field evaluations reusing crossings, {without} searching every edge",
+            rebuilt.len()
+        );
+        assert!(surface > 0, "{name}: no rebuilt chunk has a surface");
+        // The changed edges are along the faces toward the changed neighbours:
+        // most of a chunk's crossings are reused.
+        assert!(
+            with * 3 < without * 2,
+            "{name}: reusing crossings saved too little: {with} evaluations, {without} without"
+        );
+    }
 }
 
 #[test]

@@ -2,7 +2,7 @@
 //! change, found on the field by false position, with the unit normal there and
 //! (when borders are kept) the dominant material.
 
-use super::{ActiveCell, FAR};
+use super::{ActiveCell, KeptCrossings, FAR};
 use crate::boundary::Cap;
 use crate::cell::{CellTables, NO_COMP};
 use crate::error::{Error, Result};
@@ -25,6 +25,10 @@ pub(super) struct Crossing {
     /// The field has no root on the edge: a sample was forced to the other sign
     /// (see [`FORCED_CROSSING_T`]).
     pub(super) forced: bool,
+    /// For a crossing found on the field (not a cap's): the edge's key
+    /// (`3 * corner index + axis`), its two samples' bits and where on the
+    /// edge the crossing is, for [`KeptCrossings`].
+    pub(super) kept: Option<(u32, [u32; 2], f32)>,
 }
 
 /// The crossings of the edges each active cell owns, in runs of 1,024 cells (in
@@ -32,7 +36,10 @@ pub(super) struct Crossing {
 /// cell that has it on its low side in both other axes, or to the last cell along
 /// an axis at the grid's high boundary. A capped grid's cap edges take the cap's
 /// crossing; `iterations` bounds each root search; with `borders`, each crossing
-/// records the field's dominant material when it is pure.
+/// records the field's dominant material when it is pure. An edge whose two
+/// samples are those `reuse` kept for it takes the crossing kept (see
+/// [`KeptCrossings`]).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn crossings(
     field: &dyn Field,
     grid: &Grid,
@@ -41,8 +48,12 @@ pub(super) fn crossings(
     cap: Option<Cap>,
     iterations: u32,
     borders: bool,
+    reuse: Option<&KeptCrossings>,
 ) -> Vec<Result<Vec<Crossing>>> {
     let tables = CellTables::get();
+    // Edge keys fit in 32 bits on every grid a world's chunk has; on larger
+    // grids nothing is kept.
+    let keyed = 3 * grid.corner_count() <= u32::MAX as u64;
     let n = grid.cells;
     let cidx = |x: u32, y: u32, z: u32| grid.corner_index(x, y, z);
     cells
@@ -75,6 +86,7 @@ pub(super) fn crossings(
                             normal,
                             material: material::UNSET,
                             forced: false,
+                            kept: None,
                         });
                         continue;
                     }
@@ -83,6 +95,24 @@ pub(super) fn crossings(
                     let mut v0 = values[cidx(g[0], g[1], g[2])];
                     let mut v1 = values[cidx(h[0], h[1], h[2])];
                     let p0 = UVec3::from(g).as_vec3();
+                    let dir = Vec3::AXES[a];
+                    let key = keyed.then(|| 3 * cidx(g[0], g[1], g[2]) as u32 + a as u32);
+                    let ends = [v0.to_bits(), v1.to_bits()];
+                    let cell = (chunk * 1024 + j) as u32;
+                    if let Some((t, normal, material, forced)) =
+                        reuse.zip(key).and_then(|(r, key)| r.get(key, ends))
+                    {
+                        out.push(Crossing {
+                            cell,
+                            edge: e as u8,
+                            point: p0 + dir * t,
+                            normal,
+                            material,
+                            forced,
+                            kept: key.map(|key| (key, ends, t)),
+                        });
+                        continue;
+                    }
                     // Corners skipped by sampling hold only a sign: evaluate them.
                     if v0.abs() == FAR {
                         v0 = field.value(grid.to_world(p0)).copysign(v0);
@@ -102,7 +132,6 @@ pub(super) fn crossings(
                             });
                         }
                     }
-                    let dir = Vec3::AXES[a];
                     let (t, forced) = find_root(field, grid, p0, dir, v0, v1, iterations)?;
                     let point = p0 + dir * t;
                     let wp = grid.to_world(point);
@@ -120,12 +149,13 @@ pub(super) fn crossings(
                         _ => material::UNSET,
                     };
                     out.push(Crossing {
-                        cell: (chunk * 1024 + j) as u32,
+                        cell,
                         edge: e as u8,
                         point,
                         normal,
                         material,
                         forced,
+                        kept: key.map(|key| (key, ends, t)),
                     });
                 }
             }

@@ -19,11 +19,13 @@ use rayon::prelude::*;
 mod active;
 pub(crate) use active::CellLookup;
 mod crossing;
+mod kept;
 mod patches;
 mod sample;
 mod vertex;
 
 pub(crate) use crate::grid::FAR;
+pub use kept::KeptCrossings;
 pub use sample::{one_sign, sample};
 
 /// A cell with at least one sign change.
@@ -177,7 +179,7 @@ impl Hermite {
             check_grid(&big, settings)?;
             let values = boundary::pad_values(grid, &values)?;
             let cap = Cap { cells: big.cells };
-            return Hermite::build(field, &big, &values, settings, Some((cap, *grid)));
+            return Ok(Hermite::build(field, &big, &values, settings, Some((cap, *grid)), None)?.0);
         }
         Hermite::new(field, grid, &values, settings)
     }
@@ -189,33 +191,48 @@ impl Hermite {
         values: &[f32],
         settings: &Settings,
     ) -> Result<Self> {
-        Hermite::build(field, grid, values, settings, None)
+        Ok(Hermite::build(field, grid, values, settings, None, None)?.0)
+    }
+
+    /// [`Hermite::new`], taking each edge's crossing from `kept` (crossings an
+    /// earlier build of `grid` with the same field and settings kept) where
+    /// the edge's two samples are the same as then, and keeping this build's
+    /// crossings for the next. The data is the data [`Hermite::new`] gives.
+    pub fn reusing(
+        field: &dyn Field,
+        grid: &Grid,
+        values: &[f32],
+        settings: &Settings,
+        kept: Option<&KeptCrossings>,
+    ) -> Result<(Self, KeptCrossings)> {
+        let (h, kept) = Hermite::build(field, grid, values, settings, None, Some(kept))?;
+        Ok((h, kept.unwrap_or_default()))
     }
 
     /// [`Hermite::new`], on a grid whose added corners `cap` marks when capped
-    /// (with the grid the caps close).
+    /// (with the grid the caps close); with `keep`, reusing the crossings it
+    /// holds that fit (see [`Hermite::reusing`]) and returning this build's.
     fn build(
         field: &dyn Field,
         grid: &Grid,
         values: &[f32],
         settings: &Settings,
         capped: Option<(Cap, Grid)>,
-    ) -> Result<Self> {
+        keep: Option<Option<&KeptCrossings>>,
+    ) -> Result<(Self, Option<KeptCrossings>)> {
         let (cap, capped) = (capped.map(|c| c.0), capped.map(|c| c.1));
         let surface = Surface::of(field, capped.as_ref());
         let tables = CellTables::get();
         let (cells, patches) = active::active_cells(grid, values, tables);
         let lookup = active::CellLookup::new(&cells, grid.cells);
         let borders = settings.materials && settings.material_borders && field.has_materials();
-        let found = crossing::crossings(
-            field,
-            grid,
-            values,
-            &cells,
-            cap,
-            settings.root_iterations,
-            borders,
-        );
+        let iterations = settings.root_iterations;
+        let reuse = keep
+            .flatten()
+            .filter(|k| cap.is_none() && k.fits(grid, iterations, borders));
+        let found =
+            crossing::crossings(field, grid, values, &cells, cap, iterations, borders, reuse);
+        let kept = keep.map(|_| KeptCrossings::keep(grid, iterations, borders, &found));
         let p = patches::accumulate(found, &cells, &lookup, values, grid, patches, borders)?;
         let patch_vertex = vertex::cell_vertices(
             &cells,
@@ -228,7 +245,7 @@ impl Hermite {
         let cell_material = dilate(&cells, &p.own_material, grid.cells, |c| lookup.get(c));
         drop(lookup);
         let outside = sign_bits(values, grid.corners());
-        Ok(Hermite {
+        let h = Hermite {
             grid: *grid,
             outside,
             cells,
@@ -239,7 +256,8 @@ impl Hermite {
             edges: p.edges,
             cell_material,
             capped,
-        })
+        };
+        Ok((h, kept))
     }
 
     /// The surface this data's polygons are held to: `field`, the field it was

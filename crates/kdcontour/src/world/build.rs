@@ -24,28 +24,31 @@ impl World {
                 .unwrap_or_else(|| Neighbourhood::of(&self.layout, k)),
             settings: self.settings.clone(),
             kept: self.slots.get(k).and_then(|s| s.samples.clone()),
+            kept_crossings: self.slots.get(k).and_then(|s| s.crossings.clone()),
+            keep: self.keep_samples,
         }
     }
 
-    /// Installs a chunk built by [`ChunkBuild::build`], keeping its samples when
-    /// [`World::keep_samples`] is set.
+    /// Installs a chunk built by [`ChunkBuild::build`], keeping its samples and
+    /// crossings when [`World::keep_samples`] is set.
     pub fn insert_built(&mut self, build: &ChunkBuild, built: BuiltChunk) {
         let keep = self.keep_samples;
         let s = self.slot_mut(&build.key);
         let old = (
             s.tree.replace(Arc::new(built.tree)),
             std::mem::replace(&mut s.samples, built.samples.filter(|_| keep)),
+            std::mem::replace(&mut s.crossings, built.crossings.filter(|_| keep)),
         );
         s.built_for = build.neighbourhood.clone();
         drop_elsewhere(old);
     }
 
-    /// Drops the kept samples of `keys` (chunks not in the world are ignored):
-    /// the field changed there, so their next build samples it.
+    /// Drops the kept samples and crossings of `keys` (chunks not in the world
+    /// are ignored): the field changed there, so their next build samples it.
     pub fn forget_samples(&mut self, keys: &[ChunkKey]) {
         for k in keys {
             if let Some(s) = self.slots.get_mut(k) {
-                drop_elsewhere(s.samples.take());
+                drop_elsewhere((s.samples.take(), s.crossings.take()));
             }
         }
     }
@@ -63,7 +66,7 @@ impl World {
     /// become empty, and [`World::stale`] lists it again.
     pub fn remove_tree(&mut self, k: &ChunkKey) {
         let s = self.slot_mut(k);
-        drop_elsewhere((s.tree.take(), s.samples.take()));
+        drop_elsewhere((s.tree.take(), s.samples.take(), s.crossings.take()));
     }
 
     /// Samples `field` for chunk `k` (or conforms its kept samples) and builds

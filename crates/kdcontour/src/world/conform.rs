@@ -6,7 +6,7 @@ use super::layout::{ChunkKey, Layout};
 use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::grid::Grid;
-use crate::hermite::{self, Hermite};
+use crate::hermite::{self, Hermite, KeptCrossings};
 use crate::kdtree::KdTree;
 use crate::pipeline::{self, Cells};
 use crate::Settings;
@@ -53,6 +53,14 @@ pub struct ChunkBuild {
     /// rebuilt because a neighbour changed level conforms these again instead
     /// of sampling. They must come from the field the build is given.
     pub kept: Option<Arc<[f32]>>,
+    /// The crossings an earlier build of this chunk found, kept with its
+    /// samples: an edge whose two samples the level rules left as they were
+    /// takes its crossing from here instead of searching the field
+    /// ([`KeptCrossings`]).
+    pub kept_crossings: Option<Arc<KeptCrossings>>,
+    /// Whether to return the samples and crossings for the next build
+    /// ([`super::World::keep_samples`]).
+    pub keep: bool,
 }
 
 /// A chunk's tree and the field samples it was built from (none when the
@@ -62,6 +70,8 @@ pub struct BuiltChunk {
     pub tree: KdTree,
     /// The field's samples of the chunk's grid, before the level rules.
     pub samples: Option<Arc<[f32]>>,
+    /// The crossings found on them (when [`ChunkBuild::keep`] asked for them).
+    pub crossings: Option<Arc<KeptCrossings>>,
 }
 
 /// A chunk's samples after the level rules, and the field's samples before
@@ -86,9 +96,27 @@ impl ChunkBuild {
     pub fn build(&self, field: &dyn Field) -> Result<BuiltChunk> {
         self.settings.run(|| {
             let (values, samples) = self.sampled(field)?;
-            let h = Hermite::new(field, &self.grid, &values, &self.settings)?;
+            let (h, crossings) = if self.keep && samples.is_some() {
+                // Crossings kept with samples that were dropped are stale.
+                let reuse = self
+                    .kept_crossings
+                    .as_deref()
+                    .filter(|_| self.kept.is_some());
+                let (h, kept) =
+                    Hermite::reusing(field, &self.grid, &values, &self.settings, reuse)?;
+                (h, Some(Arc::new(kept)))
+            } else {
+                (
+                    Hermite::new(field, &self.grid, &values, &self.settings)?,
+                    None,
+                )
+            };
             let tree = pipeline::tree(&h, field, &self.settings, Cells::Core(self.res));
-            Ok(BuiltChunk { tree, samples })
+            Ok(BuiltChunk {
+                tree,
+                samples: samples.filter(|_| self.keep),
+                crossings,
+            })
         })?
     }
 

@@ -70,9 +70,13 @@
 //!
 //! Chunks whose neighbourhood ([`Neighbourhood`]) changes with a new layout are
 //! rebuilt: [`World::set_layout`] lists them. A level world keeps the field's
-//! samples each chunk was built from ([`World::keep_samples`]), so such a rebuild
-//! applies the rules above to its kept samples instead of sampling the field again;
-//! an edit drops the samples it reaches ([`World::edited`]).
+//! samples each chunk was built from and the crossings found on them
+//! ([`World::keep_samples`]), so such a rebuild applies the rules above to its
+//! kept samples instead of sampling the field again, and searches the field
+//! only along the edges whose samples the rules changed (the others take their
+//! kept crossing: [`crate::hermite::KeptCrossings`]); the tree is the one a
+//! build from scratch gives. An edit drops the samples and crossings it reaches
+//! ([`World::edited`]).
 //!
 //! A chunk whose field bound ([`crate::Field::bound`]) proves all of its samples to be of
 //! one sign (sky far above a terrain, rock far below it) is not sampled: its tree
@@ -93,6 +97,7 @@ pub use seams::{ChunkSnapshot, Seam};
 use crate::error::{Error, Result};
 
 use crate::grid::Grid;
+use crate::hermite::KeptCrossings;
 use crate::kdtree::KdTree;
 use crate::settings::Settings;
 use conform::level_grid;
@@ -110,16 +115,19 @@ struct Slot {
     built_for: Neighbourhood,
     threshold: f32,
     samples: Option<Arc<[f32]>>,
+    /// The crossings found on `samples`.
+    crossings: Option<Arc<KeptCrossings>>,
 }
 
 impl Slot {
-    /// Bytes held by the chunk's tree and kept samples.
+    /// Bytes held by the chunk's tree, kept samples and crossings.
     fn retained_bytes(&self) -> usize {
         self.tree.as_ref().map_or(0, |t| t.retained_bytes())
             + self
                 .samples
                 .as_ref()
                 .map_or(0, |v| std::mem::size_of_val(&**v))
+            + self.crossings.as_ref().map_or(0, |c| c.retained_bytes())
     }
 }
 
@@ -165,10 +173,12 @@ pub struct World {
     pub chunk_res: u32,
     /// Build settings used for every chunk.
     pub settings: Settings,
-    /// Keep each chunk's field samples, so a chunk rebuilt because a neighbour
-    /// changed level is conformed again without sampling the field (true for
-    /// [`World::new`], false for one-level worlds, whose neighbours never change
-    /// level). Costs `(chunk_res + 3)^3` floats per sampled chunk (counted in
+    /// Keep each chunk's field samples and the crossings found on them, so a
+    /// chunk rebuilt because a neighbour changed level is conformed again
+    /// without sampling the field and searches only the edges whose samples
+    /// changed (true for [`World::new`], false for one-level worlds, whose
+    /// neighbours never change level). Costs `(chunk_res + 3)^3` floats and
+    /// 32 bytes per crossing per sampled chunk (counted in
     /// [`World::retained_bytes`]). After the field changes, drop them with
     /// [`World::edited`] or [`World::forget_samples`].
     pub keep_samples: bool,
@@ -387,6 +397,7 @@ impl World {
                 built_for: Neighbourhood::default(),
                 threshold: self.default_threshold,
                 samples: None,
+                crossings: None,
             });
         }
         self.layout = layout;
@@ -432,6 +443,7 @@ impl World {
                 built_for: Neighbourhood::default(),
                 threshold: self.default_threshold,
                 samples: None,
+                crossings: None,
             },
         );
         Ok(true)
