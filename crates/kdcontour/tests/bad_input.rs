@@ -21,8 +21,7 @@ fn nan_field_is_an_error_naming_the_point() {
         Grid::cube(1.0, 16),
         &Settings::default(),
     )
-    .err()
-    .expect("NaN must be an error");
+    .expect_err("NaN must be an error");
     match &err {
         Error::NonFiniteSample {
             value,

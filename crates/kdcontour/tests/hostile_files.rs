@@ -225,8 +225,7 @@ fn huge_noise_parameters_are_errors_not_panics() {
             format!(r#"{{"type":"union","children":[{{"type":"sphere","radius":0.5}},{child}]}}"#);
         let f = CsgNode::from_json(&text).unwrap().compile().unwrap();
         let e = KdTree::build(&f, &Grid::cube(1.0, 8), &Settings::default())
-            .err()
-            .expect("out of the noise's reach");
+            .expect_err("out of the noise's reach");
         assert!(
             matches!(&e, Error::NonFiniteSample { cause: Some(_), .. }),
             "{e:?}"

@@ -357,6 +357,7 @@ fn a_kept_chunk_searches_again_only_the_edges_whose_samples_changed() {
             .filter(|k| random_layout(5).contains(k))
             .collect();
         let (mut with, mut without, mut kept, mut surface) = (0, 0, 0, 0);
+        let mut unchanged = 0;
         for k in &rebuilt {
             let b = w.chunk_build(k);
             // Chunks kept without samples were proved one-signed (no surface).
@@ -371,8 +372,15 @@ fn a_kept_chunk_searches_again_only_the_edges_whose_samples_changed() {
             let counting = Counting(field, 0.into());
             let reused = b.build(&counting).unwrap();
             with += counting.1.swap(0, Relaxed);
+            if b.kept_tree
+                .as_ref()
+                .is_some_and(|t| Arc::ptr_eq(t, &reused.tree))
+            {
+                unchanged += 1;
+            }
             let searched = kdcontour::world::ChunkBuild {
                 kept_crossings: None,
+                kept_tree: None,
                 ..b.clone()
             }
             .build(&counting)
@@ -390,11 +398,15 @@ fn a_kept_chunk_searches_again_only_the_edges_whose_samples_changed() {
             surface += (!crossings.is_empty()) as usize;
         }
         println!(
-            "{name}: {} kept chunks rebuilt ({surface} with a surface, {kept} crossings kept): \
-             {with} field evaluations reusing crossings, {without} searching every edge",
+            "{name}: {} kept chunks rebuilt ({surface} with a surface, {kept} crossings kept, \
+             {unchanged} unchanged): {with} field evaluations reusing crossings, {without} \
+             searching every edge",
             rebuilt.len()
         );
         assert!(surface > 0, "{name}: no rebuilt chunk has a surface");
+        // Some chunks' level rules change nothing their build reads: their
+        // tree is the kept one (and equal to a fresh build's, checked above).
+        assert!(unchanged > 0, "{name}: no rebuilt chunk kept its tree");
         // The changed edges are along the faces toward the changed neighbours:
         // most of a chunk's crossings are reused.
         assert!(

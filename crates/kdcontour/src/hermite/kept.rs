@@ -2,11 +2,14 @@
 //! world's chunk rebuilt because a neighbour changed level has the same field
 //! and grid, and its samples change only where the level rules conform them
 //! (along the faces toward its neighbours), so most of its edges have the same
-//! two samples as before, and the same crossing.
+//! two samples as before, and the same crossing. When every corner keeps its
+//! sign and every crossing edge its two samples, the whole build is the one
+//! before ([`KeptCrossings::unchanged`]).
 
 use super::crossing::Crossing;
 use crate::error::Result;
 use crate::grid::Grid;
+use crate::settings::{Budget, Settings};
 use glam::Vec3;
 
 /// The crossings one build of a grid found, by edge, with the two samples
@@ -23,9 +26,12 @@ use glam::Vec3;
 pub struct KeptCrossings {
     /// The grid they were found on.
     grid: Option<Grid>,
-    /// The root search's iterations, and whether materials were read.
-    iterations: u32,
+    /// The settings that shape a build ([`shaping`]), and whether materials
+    /// were read.
+    settings: Settings,
     borders: bool,
+    /// The corners' signs they were found with (the Hermite data's bits).
+    outside: Vec<u64>,
     /// Edge keys (`3 * corner index + axis`), sorted.
     keys: Vec<u32>,
     /// Per key: the crossing and its edge's two samples.
@@ -46,12 +52,13 @@ struct KeptCrossing {
 
 impl KeptCrossings {
     /// Keeps the crossings of `found` (each with its edge's key and samples),
-    /// found on `grid` with `iterations` root steps and materials read when
-    /// `borders`.
+    /// found on `grid` with `settings`, materials read when `borders`, and the
+    /// corners' signs `outside`.
     pub(super) fn keep(
         grid: &Grid,
-        iterations: u32,
+        settings: &Settings,
         borders: bool,
+        outside: Vec<u64>,
         found: &[Result<Vec<Crossing>>],
     ) -> Self {
         let mut all: Vec<(u32, KeptCrossing)> = found
@@ -74,16 +81,48 @@ impl KeptCrossings {
         all.sort_unstable_by_key(|e| e.0);
         KeptCrossings {
             grid: Some(*grid),
-            iterations,
+            settings: shaping(settings),
             borders,
+            outside,
             keys: all.iter().map(|e| e.0).collect(),
             found: all.into_iter().map(|e| e.1).collect(),
         }
     }
 
-    /// Whether these were found on `grid` with these settings.
-    pub(super) fn fits(&self, grid: &Grid, iterations: u32, borders: bool) -> bool {
-        self.grid.as_ref() == Some(grid) && self.iterations == iterations && self.borders == borders
+    /// Whether these were found on `grid` with settings that shape a build as
+    /// `settings` do, materials read when `borders`.
+    pub(super) fn fits(&self, grid: &Grid, settings: &Settings, borders: bool) -> bool {
+        self.grid.as_ref() == Some(grid)
+            && self.settings == shaping(settings)
+            && self.borders == borders
+    }
+
+    /// Whether a build of `grid` from `values` with `settings` is the build
+    /// these were kept from: they fit, every corner has the sign it had, and
+    /// every edge that crosses has the two samples it had. The Hermite data
+    /// reads the samples only through the corners' signs and the crossings,
+    /// and a crossing is a function of its edge's two samples, so the data,
+    /// and the tree built on it, are the same. (Equal signs at every corner
+    /// make the crossing edges the same ones.)
+    pub fn unchanged(&self, grid: &Grid, values: &[f32], settings: &Settings) -> bool {
+        let borders = self.borders;
+        // Grids too large for 32-bit edge keys keep no crossings (see
+        // `crossings`), so their ends cannot be compared.
+        let keyed = 3 * grid.corner_count() <= u32::MAX as u64;
+        if !keyed
+            || !self.fits(grid, settings, borders)
+            || values.len() as u64 != grid.corner_count()
+        {
+            return false;
+        }
+        let c = grid.corners();
+        let stride = [1usize, c.x as usize, c.x as usize * c.y as usize];
+        let same_ends = self.keys.iter().zip(&self.found).all(|(&key, k)| {
+            let (i, a) = ((key / 3) as usize, (key % 3) as usize);
+            let j = i + stride[a];
+            j < values.len() && [values[i].to_bits(), values[j].to_bits()] == k.ends
+        });
+        same_ends && super::sign_bits(values, c) == self.outside
     }
 
     /// The crossing kept for edge `key` when its samples were `ends` (bits):
@@ -108,5 +147,16 @@ impl KeptCrossings {
     pub fn retained_bytes(&self) -> usize {
         self.keys.capacity() * std::mem::size_of::<u32>()
             + self.found.capacity() * std::mem::size_of::<KeptCrossing>()
+            + self.outside.capacity() * std::mem::size_of::<u64>()
+    }
+}
+
+/// `settings` with what does not change a build's result (its threads and
+/// memory budget) set to the defaults.
+fn shaping(settings: &Settings) -> Settings {
+    Settings {
+        threads: 0,
+        memory_budget: Budget::DEFAULT,
+        ..settings.clone()
     }
 }

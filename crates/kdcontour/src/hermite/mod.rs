@@ -229,10 +229,12 @@ impl Hermite {
         let iterations = settings.root_iterations;
         let reuse = keep
             .flatten()
-            .filter(|k| cap.is_none() && k.fits(grid, iterations, borders));
+            .filter(|k| cap.is_none() && k.fits(grid, settings, borders));
         let found =
             crossing::crossings(field, grid, values, &cells, cap, iterations, borders, reuse);
-        let kept = keep.map(|_| KeptCrossings::keep(grid, iterations, borders, &found));
+        let outside = sign_bits(values, grid.corners());
+        let kept =
+            keep.map(|_| KeptCrossings::keep(grid, settings, borders, outside.clone(), &found));
         let p = patches::accumulate(found, &cells, &lookup, values, grid, patches, borders)?;
         let patch_vertex = vertex::cell_vertices(
             &cells,
@@ -244,7 +246,6 @@ impl Hermite {
         drop(p.quads);
         let cell_material = dilate(&cells, &p.own_material, grid.cells, |c| lookup.get(c));
         drop(lookup);
-        let outside = sign_bits(values, grid.corners());
         let h = Hermite {
             grid: *grid,
             outside,

@@ -88,6 +88,7 @@ pub struct BuildStats {
 }
 
 /// The retained discrete k-d tree of one grid.
+#[derive(Clone)]
 pub struct KdTree {
     /// The grid it was built on.
     pub(crate) grid: Grid,
@@ -106,6 +107,17 @@ pub struct KdTree {
     /// pipeline, [`crate::pipeline::tree`]), the default blend for the others;
     /// empty otherwise. Contouring gives each vertex its component's.
     pub(crate) materials: Vec<crate::material::MaterialBlend>,
+}
+
+impl std::fmt::Debug for KdTree {
+    /// The grid and the tree's size (not its nodes).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("KdTree")
+            .field("grid", &self.grid)
+            .field("nodes", &self.nodes.len())
+            .field("components", &self.comps.len())
+            .finish_non_exhaustive()
+    }
 }
 
 impl PartialEq for KdTree {

@@ -8,7 +8,6 @@ use crate::error::Result;
 use crate::field::Field;
 use crate::settings::Settings;
 use glam::Vec3;
-use std::sync::Arc;
 
 impl World {
     /// Everything needed to build chunk `k` elsewhere (a task, another thread).
@@ -25,6 +24,7 @@ impl World {
             settings: self.settings.clone(),
             kept: self.slots.get(k).and_then(|s| s.samples.clone()),
             kept_crossings: self.slots.get(k).and_then(|s| s.crossings.clone()),
+            kept_tree: self.slots.get(k).and_then(|s| s.tree.clone()),
             keep: self.keep_samples,
         }
     }
@@ -35,7 +35,7 @@ impl World {
         let keep = self.keep_samples;
         let s = self.slot_mut(&build.key);
         let old = (
-            s.tree.replace(Arc::new(built.tree)),
+            s.tree.replace(built.tree),
             std::mem::replace(&mut s.samples, built.samples.filter(|_| keep)),
             std::mem::replace(&mut s.crossings, built.crossings.filter(|_| keep)),
         );

@@ -58,6 +58,10 @@ pub struct ChunkBuild {
     /// takes its crossing from here instead of searching the field
     /// ([`KeptCrossings`]).
     pub kept_crossings: Option<Arc<KeptCrossings>>,
+    /// The tree that earlier build made: when the level rules leave every
+    /// corner's sign and every crossing edge's samples as they were
+    /// ([`KeptCrossings::unchanged`]), the build is this tree again.
+    pub kept_tree: Option<Arc<KdTree>>,
     /// Whether to return the samples and crossings for the next build
     /// ([`super::World::keep_samples`]).
     pub keep: bool,
@@ -67,7 +71,7 @@ pub struct ChunkBuild {
 /// field's bound proved one sign and nothing was sampled).
 pub struct BuiltChunk {
     /// The chunk's tree.
-    pub tree: KdTree,
+    pub tree: Arc<KdTree>,
     /// The field's samples of the chunk's grid, before the level rules.
     pub samples: Option<Arc<[f32]>>,
     /// The crossings found on them (when [`ChunkBuild::keep`] asked for them).
@@ -88,7 +92,7 @@ const TINY: f32 = -f32::MIN_POSITIVE;
 impl ChunkBuild {
     /// Samples the field (with the level rules) and builds the chunk's tree.
     pub fn run(&self, field: &dyn Field) -> Result<KdTree> {
-        Ok(self.build(field)?.tree)
+        Ok(Arc::unwrap_or_clone(self.build(field)?.tree))
     }
 
     /// [`ChunkBuild::run`], also returning the field's samples to keep for the
@@ -96,12 +100,22 @@ impl ChunkBuild {
     pub fn build(&self, field: &dyn Field) -> Result<BuiltChunk> {
         self.settings.run(|| {
             let (values, samples) = self.sampled(field)?;
+            // Crossings kept with samples that were dropped are stale.
+            let reuse = self
+                .kept_crossings
+                .as_ref()
+                .filter(|_| self.kept.is_some() && samples.is_some());
+            if let (true, Some(kept), Some(tree)) = (self.keep, reuse, &self.kept_tree) {
+                if kept.unchanged(&self.grid, &values, &self.settings) {
+                    return Ok(BuiltChunk {
+                        tree: tree.clone(),
+                        samples,
+                        crossings: Some(kept.clone()),
+                    });
+                }
+            }
             let (h, crossings) = if self.keep && samples.is_some() {
-                // Crossings kept with samples that were dropped are stale.
-                let reuse = self
-                    .kept_crossings
-                    .as_deref()
-                    .filter(|_| self.kept.is_some());
+                let reuse = reuse.map(|k| &**k);
                 let (h, kept) =
                     Hermite::reusing(field, &self.grid, &values, &self.settings, reuse)?;
                 (h, Some(Arc::new(kept)))
@@ -113,7 +127,7 @@ impl ChunkBuild {
             };
             let tree = pipeline::tree(&h, field, &self.settings, Cells::Core(self.res));
             Ok(BuiltChunk {
-                tree,
+                tree: Arc::new(tree),
                 samples: samples.filter(|_| self.keep),
                 crossings,
             })
