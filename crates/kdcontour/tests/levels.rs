@@ -287,17 +287,7 @@ fn a_chunk_whose_neighbour_changes_level_is_rebuilt_from_its_kept_samples() {
     let mut retained = Vec::new();
     for keep in [true, false] {
         let counting = Counting(field, 0.into());
-        let cell = 2.0 / (REGION as u32 * RES) as f32;
-        let mut w = World::new(
-            Vec3::splat(-1.0),
-            cell,
-            RES,
-            random_layout(5),
-            0.01,
-            Settings::default(),
-        )
-        .unwrap();
-        w.keep_samples = keep;
+        let mut w = random_world(keep);
         w.build_all(&counting).unwrap();
         retained.push(w.retained_bytes());
         counting.1.store(0, std::sync::atomic::Ordering::Relaxed);
@@ -338,17 +328,7 @@ fn a_kept_chunk_searches_again_only_the_edges_whose_samples_changed() {
     for name in ["gyroid", "caves"] {
         let scene = scenes::scene(name).unwrap();
         let field = &*scene.field;
-        let cell = 2.0 / (REGION as u32 * RES) as f32;
-        let mut w = World::new(
-            Vec3::splat(-1.0),
-            cell,
-            RES,
-            random_layout(5),
-            0.01,
-            Settings::default(),
-        )
-        .unwrap();
-        w.keep_samples = true;
+        let mut w = random_world(true);
         w.build_all(field).unwrap();
         let rebuilt: Vec<ChunkKey> = w
             .set_layout(random_layout(6))
@@ -600,4 +580,21 @@ fn a_level_world_stops_at_its_memory_budget() {
     };
     let roomy = level_world(field.as_ref(), layout, settings);
     assert_eq!(roomy.retained_bytes() as u64, retained);
+}
+
+/// An unbuilt world of [`random_layout`]`(5)` at threshold 0.01 over
+/// `[-1, 1]^3`, keeping its chunks' samples when `keep`.
+fn random_world(keep: bool) -> World {
+    let cell = 2.0 / (REGION as u32 * RES) as f32;
+    let mut w = World::new(
+        Vec3::splat(-1.0),
+        cell,
+        RES,
+        random_layout(5),
+        0.01,
+        Settings::default(),
+    )
+    .unwrap();
+    w.keep_samples = keep;
+    w
 }
