@@ -176,9 +176,10 @@ pub struct World {
     /// Keep each chunk's field samples and the crossings found on them, so a
     /// chunk rebuilt because a neighbour changed level is conformed again
     /// without sampling the field and searches only the edges whose samples
-    /// changed (true for [`World::new`], false for one-level worlds, whose
-    /// neighbours never change level). Costs `(chunk_res + 3)^3` floats and
-    /// 32 bytes per crossing per sampled chunk (counted in
+    /// changed, or keeps its tree when none did (true for [`World::new`],
+    /// false for one-level worlds, whose neighbours never change level). Costs
+    /// `(chunk_res + 3)^3` floats and bits and 32 bytes per crossing per
+    /// sampled chunk (counted in
     /// [`World::retained_bytes`]). After the field changes, drop them with
     /// [`World::edited`] or [`World::forget_samples`].
     pub keep_samples: bool,
