@@ -74,8 +74,9 @@
 //! ([`World::keep_samples`]), so such a rebuild applies the rules above to its
 //! kept samples instead of sampling the field again, and searches the field
 //! only along the edges whose samples the rules changed (the others take their
-//! kept crossing: [`crate::hermite::KeptCrossings`]); the tree is the one a
-//! build from scratch gives. An edit drops the samples and crossings it reaches
+//! kept crossing: [`crate::hermite::KeptCrossings`]), and a chunk where no
+//! corner's sign and no crossing edge's samples changed keeps its tree; the tree
+//! is the one a build from scratch gives. An edit drops the samples and crossings it reaches
 //! ([`World::edited`]).
 //!
 //! A chunk whose field bound ([`crate::Field::bound`]) proves all of its samples to be of
