@@ -14,8 +14,9 @@
 //!   measuring it prints the chunk count, retained bytes and the time the
 //!   plugin took to build the whole view from scratch; after each speed, the
 //!   plugin's own main-thread time per frame (mean, 99th percentile, max) over
-//!   every measured frame, and how far the camera was from where the shown
-//!   levels were made for it (the lag).
+//!   every measured frame, how far the camera was from where the shown
+//!   levels were made for it (the lag: the plugin lays levels out for where
+//!   a moving camera will be), and how long the level changes took.
 //!
 //! - `frame_navmesh`: the terrain demo's field seen 1,024 cells out, navmesh
 //!   on: four agents (navigation anchors) walking circles at 5 units a second,
@@ -204,6 +205,8 @@ fn horizon(c: &mut Criterion) {
         // for it, and how many level changes landed.
         let mut lag: Vec<f32> = Vec::new();
         let mut changes = 0usize;
+        // How long each of them took, from its layout's request to shown.
+        let mut took: Vec<f64> = Vec::new();
         let mut shown_for = Vec3::NAN;
         g.bench_function(format!("camera_flying_{speed}_cells_per_s"), |b| {
             b.iter_custom(|n| {
@@ -226,6 +229,7 @@ fn horizon(c: &mut Criterion) {
                         if made_for != shown_for {
                             shown_for = made_for;
                             changes += 1;
+                            took.push(state.level_change_seconds());
                         }
                         lag.push(at.xz().distance(made_for.xz()));
                     }
@@ -256,6 +260,12 @@ fn horizon(c: &mut Criterion) {
             lag.iter().sum::<f32>() / lag.len().max(1) as f32,
             lag.last().copied().unwrap_or(0.0)
         );
+        if let Some((took_mean, _, took_max)) = spread(&mut took) {
+            println!(
+                "horizon_4096 at {speed} cells/s: a level change takes {took_mean:.2} s \
+                 (mean), {took_max:.2} s (max) from its layout's request to shown",
+            );
+        }
         println!(
             "horizon_4096 at {speed} cells/s: whole app update, main thread processor time \
              per frame: mean {cpu_mean:.3} ms, p99 {cpu_p99:.3} ms, max {cpu_max:.3} ms",

@@ -218,6 +218,13 @@ impl VolumeState {
         self.horizon.level_change_in_progress()
     }
 
+    /// How long a horizon volume's last level change took, from its layout's
+    /// request to its meshes shown (seconds; zero before the first, and for
+    /// other volumes).
+    pub fn level_change_seconds(&self) -> f64 {
+        self.horizon.change_seconds()
+    }
+
     /// A horizon volume's layout whose chunks are shown now (while a level
     /// change runs, the one it replaces), and which of its chunks are kept;
     /// `None` until the first layout has loaded. The shown chunks are exactly

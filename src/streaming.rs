@@ -33,6 +33,7 @@ fn stream_chunks(
     mut commands: Commands,
     settings: Res<KdContourSettings>,
     clock: Res<MainThreadClock>,
+    time: Res<Time<Real>>,
     camera: Query<&GlobalTransform, With<LodCamera>>,
     mut volumes: Query<(Entity, &KdVolume, &GlobalTransform, &mut VolumeState)>,
 ) {
@@ -58,7 +59,7 @@ fn stream_chunks(
                     &mut commands,
                     entity,
                     state,
-                    local,
+                    (local, time.elapsed_secs_f64()),
                     (view_cells, level0_cells),
                     (min_y, max_y),
                     settings.default_threshold,

@@ -27,7 +27,7 @@ impl Plugin for UploadPlugin {
 
 pub(crate) fn apply_meshes(
     mut commands: Commands,
-    settings: Res<KdContourSettings>,
+    (settings, time): (Res<KdContourSettings>, Res<Time<Real>>),
     clock: Res<MainThreadClock>,
     mut meshes: ResMut<Assets<Mesh>>,
     mut volumes: Query<(Entity, &KdVolume, &mut VolumeState)>,
@@ -49,7 +49,8 @@ pub(crate) fn apply_meshes(
         // A level change whose meshes are all ready shows them in one frame,
         // whatever the budget (see `crate::horizon`).
         if crate::horizon::transition_ready(state) {
-            for k in crate::horizon::finish_transition(state, up.commands) {
+            for k in crate::horizon::finish_transition(state, up.commands, time.elapsed_secs_f64())
+            {
                 up.show(state, k);
             }
         }

@@ -3,6 +3,7 @@
 //! level change needs to know of a new one, worked out off the main thread
 //! ([`NextLayout`]).
 
+use super::motion::CameraMotion;
 use bevy::prelude::*;
 use bevy::tasks::Task;
 use kdcontour::world::{ChunkKey, ChunkMap, ChunkSet, Layout, PreparedLayout};
@@ -51,7 +52,9 @@ pub(crate) fn in_rows(k: &ChunkKey, (min_y, max_y): Rows) -> bool {
 /// Every point of the rows within `reach` of the camera lies in a kept chunk.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HorizonKeep {
-    /// The camera the layout was made for (level-0 chunk units).
+    /// The camera position the layout was made for (level-0 chunk units):
+    /// where the camera was expected to be while the layout is shown (see
+    /// `horizon::motion`).
     pub camera: Vec3,
     /// The view distance along x and z (level-0 chunks).
     pub reach: f32,
@@ -142,6 +145,12 @@ pub(crate) struct HorizonState {
     pub(super) seam_partners: ChunkMap<Vec<ChunkKey>>,
     /// The layout whose chunks are shown, and which of them.
     pub(super) shown: Option<(Layout, HorizonKeep)>,
+    /// The camera's motion and how long level changes take (the layouts'
+    /// look-ahead).
+    pub(super) motion: CameraMotion,
+    /// When (real seconds) the layout of the level change being prepared or
+    /// running was requested.
+    pub(super) requested_at: Option<f64>,
 }
 
 impl HorizonState {
@@ -170,6 +179,12 @@ impl HorizonState {
     /// The chunks a level change replaces, still shown until it ends.
     pub(crate) fn retired(&self) -> &[(ChunkKey, Entity)] {
         self.transition.as_ref().map_or(&[], |t| &t.retired)
+    }
+
+    /// How long the last level change took, from its layout's request to its
+    /// meshes shown (seconds; zero before the first).
+    pub(crate) fn change_seconds(&self) -> f64 {
+        self.motion.change_seconds()
     }
 
     /// The chunks of the seams kept chunk `c` owns, when known.

@@ -17,6 +17,12 @@
 //! neighbourhood, [`PreparedLayout`]), so the main thread only does the
 //! bookkeeping.
 //!
+//! A moving camera is laid out for where it will be ([`motion`]): its
+//! position ahead by its velocity times one and a half level changes (at most
+//! the reach of level 2), so a level change lands with the camera near the
+//! point it was made for instead of a change's flight behind it. "The camera"
+//! above is that point; a still camera's is the camera itself.
+//!
 //! ## Changing levels without a hole or an overlap
 //! A new layout adds chunks, drops chunks, and changes the neighbourhood (so the
 //! samples, see [`kdcontour::world`]) or the seams of chunks it keeps. A
@@ -37,6 +43,7 @@
 //! The first layout of a volume replaces nothing: its chunks show as they land.
 
 pub(crate) mod layout;
+pub(crate) mod motion;
 
 pub use layout::{horizon_layout, HorizonKeep};
 use layout::{top_level, NextLayout, Rows};
@@ -99,18 +106,24 @@ pub(crate) fn new_world(
     )
 }
 
-/// Follows the camera: when it enters another level-0 chunk (and no level
-/// change is running), lays the volume out around it on a task thread, then
+/// Follows the camera (`now`: real seconds): when the point it will be at
+/// (see [`motion`]) enters another level-0 chunk, and no level change is
+/// running, lays the volume out around that point on a task thread, then
 /// starts the level change when that is ready.
 pub(crate) fn stream(
     commands: &mut Commands,
     volume: Entity,
     state: &mut VolumeState,
-    camera: Vec3,
+    (camera, now): (Vec3, f64),
     cells: (u32, u32),
     rows: Rows,
     threshold: f32,
 ) {
+    let res = state.world().chunk_res;
+    // Level 2 reaches four times as far as level 0 (chunks).
+    let reach2 = 4.0 * cells.1 as f32 / res as f32;
+    let here = state.world().to_chunk_units(camera);
+    state.horizon.motion.observe(now, here, reach2);
     if state.horizon.transition.is_some() {
         return;
     }
@@ -123,20 +136,23 @@ pub(crate) fn stream(
         if let Err(e) = started {
             error!("KdVolume {volume}: {e}");
         }
+        if state.horizon.transition.is_none() {
+            // Nothing changed, or it failed: no level change to time.
+            state.horizon.requested_at = None;
+        }
         return;
     }
-    let world = state.world();
-    let cam = world.to_chunk_units(camera);
+    let cam = state.horizon.motion.ahead(here, reach2);
     let key = (
         cam.floor().as_ivec3(),
         ((cells.0 as u64) << 32) | cells.1 as u64,
         rows.0,
         rows.1,
     );
-    let res = world.chunk_res;
     if !state.stream_to(key) {
         return;
     }
+    state.horizon.requested_at = Some(now);
     let keep = HorizonKeep {
         camera: cam,
         reach: cells.0 as f32 / res as f32,
@@ -266,13 +282,21 @@ pub(crate) fn transition_ready(state: &VolumeState) -> bool {
     })
 }
 
-/// Ends the level change: despawns the chunks it replaced and returns the
-/// chunks whose held meshes must be shown in this same frame.
-pub(crate) fn finish_transition(state: &mut VolumeState, commands: &mut Commands) -> Vec<ChunkKey> {
+/// Ends the level change (at `now`, real seconds): despawns the chunks it
+/// replaced and returns the chunks whose held meshes must be shown in this
+/// same frame.
+pub(crate) fn finish_transition(
+    state: &mut VolumeState,
+    commands: &mut Commands,
+    now: f64,
+) -> Vec<ChunkKey> {
     let Some(t) = state.horizon.transition.take() else {
         return Vec::new();
     };
     state.horizon.shown = Some((state.world().layout().clone(), t.keep));
+    if let Some(at) = state.horizon.requested_at.take() {
+        state.horizon.motion.change_took(now - at);
+    }
     for (_, e) in t.retired {
         commands.entity(e).despawn();
     }

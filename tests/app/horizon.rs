@@ -211,3 +211,76 @@ fn bad_horizon_settings_are_reported_and_skipped() {
         assert!(app.world().get::<KdVolume>(v).is_none(), "removed");
     }
 }
+
+#[test]
+fn a_flying_camera_is_laid_out_ahead_of_itself_and_a_still_one_where_it_is() {
+    use bevy::time::TimeUpdateStrategy;
+    use std::time::Duration;
+    let mut app = app();
+    // The app's clock moves 20 ms a frame, whatever the machine does.
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(
+        20,
+    )));
+    let cam = app
+        .world_mut()
+        .spawn((LodCamera, Transform::from_xyz(40.0, 6.0, 4.0)))
+        .id();
+    let v = spawn(&mut app, hills());
+    settle(&mut app, v);
+    fn state(app: &App, v: Entity) -> &VolumeState {
+        app.world().get::<VolumeState>(v).unwrap()
+    }
+    assert!(
+        state(&app, v).level_change_seconds() > 0.0,
+        "the first load is timed"
+    );
+    let shown_for = |app: &App| state(app, v).horizon_shown().unwrap().1.camera;
+    // Still: laid out where it is (level-0 chunks of RES cells).
+    assert_eq!(shown_for(&app), Vec3::new(40.0, 6.0, 4.0) / RES as f32);
+
+    // Fly along x at a quarter of a cell a frame (12.5 cells a second by the
+    // app's clock), slow enough that the look-ahead stays under its cap in a
+    // debug build.
+    let mut x = 40.0;
+    let mut ahead = 0;
+    let mut changes = 0;
+    let mut last = shown_for(&app);
+    // Until four level changes have shown (a busy machine takes more frames).
+    for _ in 0..1600 {
+        if changes == 4 {
+            break;
+        }
+        x += 0.25;
+        app.world_mut()
+            .get_mut::<Transform>(cam)
+            .unwrap()
+            .translation = Vec3::new(x, 6.0, 4.0);
+        app.update();
+        let made_for = shown_for(&app);
+        if made_for != last {
+            last = made_for;
+            changes += 1;
+            let lead = made_for.x - x / RES as f32;
+            // Never past the reach of level 2 (4 x the level-0 reach of 2
+            // chunks) ahead.
+            assert!(lead <= 8.0 + 1e-3, "laid out {lead} chunks ahead");
+            assert!(made_for.z == 0.5 && made_for.y == 0.75, "{made_for}");
+            ahead += (lead > 0.0) as usize;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert!(changes >= 3, "only {changes} level changes in the flight");
+    // A layout made for where the camera was would always be behind it.
+    assert!(
+        ahead > 0,
+        "no level change of {changes} was laid out ahead of the camera"
+    );
+
+    // Stopped: after a moment it is laid out where it is again.
+    for _ in 0..30 {
+        app.update();
+    }
+    settle(&mut app, v);
+    assert_eq!(shown_for(&app), Vec3::new(x, 6.0, 4.0) / RES as f32);
+    check_cover(&app, v).unwrap();
+}
