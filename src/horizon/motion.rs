@@ -3,9 +3,12 @@
 //! 4,096-cell view on two cores), and a camera flying meanwhile would find the
 //! levels made for where it was. So a horizon volume lays its chunks out for
 //! the camera's position ahead by its velocity (over the last
-//! [`WINDOW`] seconds) times one and a half level changes (the last one's
-//! duration): the new levels land when the camera is about halfway to that
-//! point and stay shown while it covers the rest. The look-ahead is at most
+//! [`WINDOW`] seconds) times one and a half level changes (the mean duration
+//! of the last [`CHANGES_KEPT`]; a change's size varies with where the rings
+//! move, and the mean guesses the next one better than the last alone): the
+//! new levels land with the camera half a change short of that point and are
+//! replaced with it half a change past, so they are shown centred on it. The
+//! look-ahead is at most
 //! the reach of level 2 (four times the level-0 reach), so a camera that stops
 //! short is among level-2 chunks or finer until the next change (as a
 //! camera flying without look-ahead is while a change runs), and a step
@@ -18,6 +21,9 @@ use std::collections::VecDeque;
 /// Seconds of camera positions the velocity is measured over.
 pub(crate) const WINDOW: f64 = 0.25;
 
+/// Level changes whose durations are averaged.
+pub(crate) const CHANGES_KEPT: usize = 4;
+
 /// Level changes last this many of their own durations ahead: one to land,
 /// half of the next one's while shown (see the module docs).
 const CHANGES_AHEAD: f64 = 1.5;
@@ -28,9 +34,9 @@ pub(crate) struct CameraMotion {
     /// (real seconds, position in level-0 chunks), oldest first, spanning at
     /// most a little over [`WINDOW`].
     seen: VecDeque<(f64, Vec3)>,
-    /// The last level change's duration, from its layout's request to its
-    /// meshes shown (seconds).
-    change_s: f64,
+    /// The last [`CHANGES_KEPT`] level changes' durations, from their
+    /// layout's request to their meshes shown (seconds), oldest first.
+    changes: VecDeque<f64>,
 }
 
 impl CameraMotion {
@@ -67,19 +73,29 @@ impl CameraMotion {
     /// Records that a level change took `secs` from request to shown.
     pub(crate) fn change_took(&mut self, secs: f64) {
         if secs.is_finite() && secs >= 0.0 {
-            self.change_s = secs;
+            if self.changes.len() == CHANGES_KEPT {
+                self.changes.pop_front();
+            }
+            self.changes.push_back(secs);
         }
     }
 
     /// The last level change's duration (seconds; zero before the first).
     pub(crate) fn change_seconds(&self) -> f64 {
-        self.change_s
+        self.changes.back().copied().unwrap_or(0.0)
+    }
+
+    /// The mean duration of the last [`CHANGES_KEPT`] level changes (seconds;
+    /// zero before the first).
+    fn typical_change(&self) -> f64 {
+        self.changes.iter().sum::<f64>() / self.changes.len().max(1) as f64
     }
 
     /// Where to lay the chunks out for: the camera `at` plus its velocity
-    /// times [`CHANGES_AHEAD`] level changes, at most `reach` chunks ahead.
+    /// times [`CHANGES_AHEAD`] typical level changes, at most `reach` chunks
+    /// ahead.
     pub(crate) fn ahead(&self, at: Vec3, reach: f32) -> Vec3 {
-        let step = self.velocity() * (CHANGES_AHEAD * self.change_s) as f32;
+        let step = self.velocity() * (CHANGES_AHEAD * self.typical_change()) as f32;
         at + step.clamp_length_max(reach.max(0.0))
     }
 }
@@ -118,6 +134,13 @@ mod tests {
         m.change_took(f64::NAN);
         m.change_took(-1.0);
         assert_eq!(m.change_seconds(), 1.2);
+        // The look-ahead follows the mean of the last four changes.
+        for secs in [2.0, 0.4, 0.8, 2.0, 0.8] {
+            m.change_took(secs);
+        }
+        assert_eq!(m.change_seconds(), 0.8);
+        let p = m.ahead(Vec3::ONE, 4.0);
+        assert!(p.distance(Vec3::ONE + v * 1.5 * 1.0) < 1e-3, "{p}");
     }
 
     #[test]
