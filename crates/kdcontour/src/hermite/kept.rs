@@ -92,9 +92,14 @@ impl KeptCrossings {
     /// Whether these were found on `grid` with settings that shape a build as
     /// `settings` do, materials read when `borders`.
     pub(super) fn fits(&self, grid: &Grid, settings: &Settings, borders: bool) -> bool {
-        self.grid.as_ref() == Some(grid)
-            && self.settings == shaping(settings)
-            && self.borders == borders
+        self.shaped_alike(grid, settings) && self.borders == borders
+    }
+
+    /// Whether they were found on `grid` with settings that shape a build as
+    /// `settings` do. (Whether materials were read follows from the settings
+    /// and the field, which is the same field by contract.)
+    fn shaped_alike(&self, grid: &Grid, settings: &Settings) -> bool {
+        self.grid.as_ref() == Some(grid) && self.settings == shaping(settings)
     }
 
     /// Whether a build of `grid` from `values` with `settings` is the build
@@ -105,12 +110,11 @@ impl KeptCrossings {
     /// and the tree built on it, are the same. (Equal signs at every corner
     /// make the crossing edges the same ones.)
     pub fn unchanged(&self, grid: &Grid, values: &[f32], settings: &Settings) -> bool {
-        let borders = self.borders;
         // Grids too large for 32-bit edge keys keep no crossings (see
         // `crossings`), so their ends cannot be compared.
         let keyed = 3 * grid.corner_count() <= u32::MAX as u64;
         if !keyed
-            || !self.fits(grid, settings, borders)
+            || !self.shaped_alike(grid, settings)
             || values.len() as u64 != grid.corner_count()
         {
             return false;
