@@ -42,6 +42,18 @@ fn spawn(app: &mut App, field: Arc<dyn Field>) -> Entity {
         .id()
 }
 
+/// Spawns the camera at (40, 6, 4) and a horizon volume of the hills, and
+/// waits for its first view: (camera, volume).
+fn fly_from_hills(app: &mut App) -> (Entity, Entity) {
+    let cam = app
+        .world_mut()
+        .spawn((LodCamera, Transform::from_xyz(40.0, 6.0, 4.0)))
+        .id();
+    let v = spawn(app, hills());
+    settle(app, v);
+    (cam, v)
+}
+
 /// Checks that the shown chunks are exactly the kept chunks of the layout the
 /// volume shows (so no two overlap), that they cover every level-0 chunk of the
 /// rows within the view of that layout's camera exactly once, and that every
@@ -102,12 +114,7 @@ fn check_cover(app: &App, volume: Entity) -> Result<usize, String> {
 #[test]
 fn a_flight_with_edits_keeps_the_horizon_whole_and_loses_nothing() {
     let mut app = app();
-    let cam = app
-        .world_mut()
-        .spawn((LodCamera, Transform::from_xyz(40.0, 6.0, 4.0)))
-        .id();
-    let v = spawn(&mut app, hills());
-    settle(&mut app, v);
+    let (cam, v) = fly_from_hills(&mut app);
     check_cover(&app, v).unwrap();
     let levels = |app: &App| -> HashMap<u32, usize> {
         let s = app.world().get::<VolumeState>(v).unwrap();
@@ -221,12 +228,7 @@ fn a_flying_camera_is_laid_out_ahead_of_itself_and_a_still_one_where_it_is() {
     app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(
         20,
     )));
-    let cam = app
-        .world_mut()
-        .spawn((LodCamera, Transform::from_xyz(40.0, 6.0, 4.0)))
-        .id();
-    let v = spawn(&mut app, hills());
-    settle(&mut app, v);
+    let (cam, v) = fly_from_hills(&mut app);
     fn state(app: &App, v: Entity) -> &VolumeState {
         app.world().get::<VolumeState>(v).unwrap()
     }
