@@ -86,7 +86,8 @@ impl Node {
                 (v * scale, m)
             }
             Op::Material(id, child) => child.material(p, Some(*id)),
-            Op::Heightfield(h) => (h.value(p), given.map_or_else(|| h.material(p), |_| own)),
+            Op::Heightfield(h) if given.is_none() => h.value_and_material(p),
+            Op::Heightfield(h) => (h.value(p), own),
             Op::Density(d) => (d.value(p), given.map_or_else(|| d.material(p), |_| own)),
         }
     }

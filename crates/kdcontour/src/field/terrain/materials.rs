@@ -69,10 +69,16 @@ impl Paint {
         let snow = flat * smoothstep(snow_line - band, snow_line + band, p.y);
         let low_line = self.base - LOW_LINE * amp;
         let low = smoothstep(low_line + band, low_line - band, p.y);
-        let f = self.frequency;
-        let q = [p.x as f64 * f, p.y as f64 * f, p.z as f64 * f];
-        let mask = smoothstep(MASK_FROM, MASK_TO, self.mask.get(q) as f32);
-        let dirt = (flat - snow) * mask.max(low);
+        // Dirt shares what rock and snow leave; where they leave nothing (steep
+        // rock, deep snow) the mask's noise is not read (`0 * x` is 0).
+        let open = flat - snow;
+        let dirt = if open > 0.0 {
+            let f = self.frequency;
+            let q = [p.x as f64 * f, p.y as f64 * f, p.z as f64 * f];
+            open * smoothstep(MASK_FROM, MASK_TO, self.mask.get(q) as f32).max(low)
+        } else {
+            0.0
+        };
         let grass = flat - snow - dirt;
         let cave = cave.clamp(0.0, 1.0);
         let keep = 1.0 - cave;

@@ -566,3 +566,40 @@ fn materials_from_a_known_gradient_are_the_fields_materials() {
         "{caves} points in cave walls, {brushed} brushed"
     );
 }
+
+#[test]
+fn a_height_fields_value_with_material_is_its_value_and_material_bit_for_bit() {
+    use crate::field::Field;
+    let height = Heightfield::new(HeightfieldParams {
+        seed: 3,
+        base: 0.0,
+        amplitude: 10.0,
+        frequency: 0.015,
+        octaves: 5,
+    });
+    let mut rng = Rng(11);
+    let far = NOISE_REACH as f32;
+    let mut points: Vec<Vec3> = (0..4000)
+        .map(|_| {
+            point_in(
+                &mut rng,
+                Vec3::new(-400.0, -30.0, -400.0),
+                Vec3::new(400.0, 25.0, 400.0),
+            )
+        })
+        .collect();
+    // Out of the noise's reach (NaN values) and at its edge.
+    points.extend([Vec3::new(far, 0.0, 0.0), Vec3::new(0.0, 1.0, -far * 1e3)]);
+    let mut kinds = std::collections::HashSet::new();
+    for p in points {
+        let (v, m) = height.value_and_material(p);
+        assert_eq!(v.to_bits(), height.value(p).to_bits(), "value at {p}");
+        let want = height.material(p);
+        assert_eq!(m.ids, want.ids, "material ids at {p}");
+        let bits = |w: [f32; 4]| w.map(f32::to_bits);
+        assert_eq!(bits(m.weights), bits(want.weights), "weights at {p}");
+        kinds.insert(m.dominant());
+    }
+    // The points cover more than one material.
+    assert!(kinds.len() > 1, "materials seen: {kinds:?}");
+}
