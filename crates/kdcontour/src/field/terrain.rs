@@ -256,19 +256,27 @@ impl Heightfield {
         reach_fault(&[p.x as f64, p.z as f64], self.reach())
     }
 
-    /// [`Field::value`] and [`Field::material`] at `p`, bit for bit, from one
+    /// [`Field::value`] and [`Field::gradient`] at `p`, bit for bit, from one
     /// evaluation of the noise with its gradient (the value alone is a second
-    /// one): what a CSG tree asks of a height field when it reads materials.
-    pub(crate) fn value_and_material(&self, p: Vec3) -> (f32, crate::material::MaterialBlend) {
+    /// one): what a CSG tree asks of a height field for a normal.
+    pub(crate) fn value_gradient(&self, p: Vec3) -> (f32, Vec3) {
         let q = [p.x as f64, p.z as f64];
         if !self.in_reach(q) {
-            return (self.value(p), self.material(p));
+            return (self.value(p), self.gradient(p));
         }
         let (n, [dx, dz]) = self.noise.get_grad(q);
         let height = self.params.base + self.params.amplitude * n as f32;
         let amp = self.params.amplitude as f64;
         let gradient = Vec3::new((-amp * dx) as f32, 1.0, (-amp * dz) as f32);
-        (p.y - height, self.paint.at(p, gradient, 0.0))
+        (p.y - height, gradient)
+    }
+
+    /// [`Field::value`] and [`Field::material`] at `p`, bit for bit, from one
+    /// evaluation of the noise ([`Heightfield::value_gradient`]): what a CSG
+    /// tree asks of a height field when it reads materials.
+    pub(crate) fn value_and_material(&self, p: Vec3) -> (f32, crate::material::MaterialBlend) {
+        let (value, gradient) = self.value_gradient(p);
+        (value, self.paint.at(p, gradient, 0.0))
     }
 }
 

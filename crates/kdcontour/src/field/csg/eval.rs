@@ -137,7 +137,7 @@ impl Node {
                 (d * scale, *rot * g)
             }
             Op::Material(_, child) => child.eval(p),
-            Op::Heightfield(h) => (h.value(p), h.gradient(p)),
+            Op::Heightfield(h) => h.value_gradient(p),
             Op::Density(d) => (d.value(p), d.gradient(p)),
         }
     }
