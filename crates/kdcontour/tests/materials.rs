@@ -358,3 +358,39 @@ fn a_paint_changes_materials_not_the_surface() {
     assert!(b.triangle_count() >= a.triangle_count());
     assert_materials_match(&b, &after, grid.cell_size, "painted, crisp");
 }
+
+#[test]
+fn cells_beside_a_border_merge_along_it_and_keep_it_where_it_is() {
+    // The plane's border runs along z. The cells whose crossings hold both
+    // materials stay cells; the cells beside them may merge into nodes that run
+    // along the border (their vertices keep the cells' distance to it), but not
+    // into nodes that reach away from it.
+    let grid = Grid::cube(1.0, 64);
+    let cell = grid.cell_size;
+    let crisp = kdcontour::mesh(&TwoMaterials, &grid, 1.0, &Settings::default()).unwrap();
+    let (band, hausdorff) = border_reach(&crisp, cell);
+    assert!(
+        band <= 1.0 && hausdorff <= 1.0,
+        "band {band}, Hausdorff {hausdorff}"
+    );
+    // Vertices per distance from the border, in whole cells.
+    let mut per_ring = [0usize; 4];
+    for p in &crisp.positions {
+        let ring = ((p.x - BORDER).abs() / cell) as usize;
+        if ring < per_ring.len() {
+            per_ring[ring] += 1;
+        }
+    }
+    // The border's own cells: one vertex per cell along it (64 rows), on one
+    // side or the other.
+    assert!(per_ring[0] >= 64, "vertices within a cell: {per_ring:?}");
+    // The cells beside them (a column of 64 on each side) merge where the
+    // tree's nodes run along the border: fewer vertices than cells. (Kept as
+    // cells, as they were when every cell within one of a border stayed a
+    // cell, they gave one vertex each, and the cells beside those too.)
+    let beside = per_ring[0] + per_ring[1] - 64;
+    assert!(
+        beside < 128,
+        "vertices within 2 cells of the border: {per_ring:?}"
+    );
+}

@@ -62,11 +62,17 @@ pub struct Hermite {
     /// Every edge crossing, in a fixed order.
     pub(crate) edges: Vec<EdgeCrossing>,
     /// Per active cell, when the field has materials and
-    /// [`Settings::material_borders`] is on: the dominant material of every
-    /// crossing on the edges of the active cells within one cell of it (the
-    /// 3x3x3 block around it), or [`material::MIXED`] where they differ (a
-    /// border is near). Empty otherwise.
+    /// [`Settings::material_borders`] is on: the dominant material of its
+    /// crossings, or [`material::MIXED`] where they differ (a border passes
+    /// through it); a cell with no pure crossing takes the code of the 3x3x3
+    /// block around it (see `border_codes`). Empty otherwise.
     pub(crate) cell_material: Vec<u16>,
+    /// Per active cell (with [`Hermite::cell_material`]): for a cell of one
+    /// material with a cell of another in the 3x3x3 block around it, the unit
+    /// direction toward them (across the border); zero elsewhere. A node of the
+    /// tree that holds such a cell may be a leaf only while its vertex keeps
+    /// the cell's distance to the border (`BORDER_SHIFT` in the tree's build).
+    pub(crate) cell_border: Vec<Vec3>,
     /// With [`Boundary::Capped`] and a solid that reaches the grid's faces, the
     /// grid the caps close (this data's grid less its caps); `None`
     /// otherwise.
@@ -244,7 +250,8 @@ impl Hermite {
             &Facing::new(surface.field(), grid),
         );
         drop(p.quads);
-        let cell_material = dilate(&cells, &p.own_material, grid.cells, |c| lookup.get(c));
+        let (cell_material, cell_border) =
+            border_codes(&cells, &p.own_material, grid.cells, |c| lookup.get(c));
         drop(lookup);
         let h = Hermite {
             grid: *grid,
@@ -256,6 +263,7 @@ impl Hermite {
             crossings: p.crossings,
             edges: p.edges,
             cell_material,
+            cell_border,
             capped,
         };
         Ok((h, kept))
@@ -275,23 +283,33 @@ impl Hermite {
     }
 }
 
-/// Per active cell: the material codes `own` (one per cell, empty when not
-/// tracked) of the active cells in the 3x3x3 block around it, combined
-/// ([`material::combine`]); `index` gives a cell's active index or `u32::MAX`.
-fn dilate(
+/// Per active cell, from the material codes `own` (one per cell, empty when not
+/// tracked; `index` gives a cell's active index or `u32::MAX`): its code for the
+/// tree ([`Hermite::cell_material`]) and, for a cell of one pure material next to
+/// a border, the unit direction toward the other side
+/// ([`Hermite::cell_border`]).
+///
+/// A cell whose crossings hold two materials is [`material::MIXED`]; a cell of
+/// one material keeps it, and when a cell of the 3x3x3 block around it holds
+/// another (or is mixed) its direction is the mean of the offsets to those
+/// cells (a block with such cells all round, whose offsets cancel, makes it
+/// mixed). A cell with no pure crossing takes the block's combined code, mixed
+/// where the block holds two materials.
+fn border_codes(
     cells: &[ActiveCell],
     own: &[u16],
     n: UVec3,
     index: impl Fn([u32; 3]) -> u32 + Sync,
-) -> Vec<u16> {
+) -> (Vec<u16>, Vec<Vec3>) {
     if own.is_empty() {
-        return Vec::new();
+        return (Vec::new(), Vec::new());
     }
-    cells
+    let per_cell: Vec<(u16, Vec3)> = cells
         .par_iter()
         .enumerate()
         .map(|(i, c)| {
-            let mut code = own[i];
+            let mine = own[i];
+            let (mut block, mut toward) = (mine, Vec3::ZERO);
             for d in 0..27u32 {
                 let off = [d % 3, d / 3 % 3, d / 9];
                 let mut at = [0u32; 3];
@@ -305,13 +323,27 @@ fn dilate(
                     continue;
                 }
                 let j = index(at);
-                if j != u32::MAX {
-                    code = material::combine(code, own[j as usize]);
+                if j == u32::MAX {
+                    continue;
+                }
+                let theirs = own[j as usize];
+                block = material::combine(block, theirs);
+                if theirs != material::UNSET && theirs != mine {
+                    toward += Vec3::new(off[0] as f32, off[1] as f32, off[2] as f32) - 1.0;
                 }
             }
-            code
+            match mine {
+                material::MIXED => (material::MIXED, Vec3::ZERO),
+                material::UNSET => (block, Vec3::ZERO),
+                _ if block != material::MIXED => (mine, Vec3::ZERO),
+                _ => match toward.try_normalize() {
+                    Some(dir) => (mine, dir),
+                    None => (material::MIXED, Vec3::ZERO),
+                },
+            }
         })
-        .collect()
+        .collect();
+    per_cell.into_iter().unzip()
 }
 
 /// One bit per corner of `values`, 64 corners per word: set when outside.

@@ -25,7 +25,8 @@ pub(super) struct Arena {
     pub(super) edges: Vec<[u16; 12]>,
     /// Per node (build time only), when the Hermite data tracks materials
     /// ([`Hermite::cell_material`]): the material code of its cells (one
-    /// dominant material, or [`crate::material::MIXED`] where a border is near).
+    /// dominant material, or [`crate::material::MIXED`] where a border passes
+    /// through them).
     pub(super) material: Vec<u16>,
 }
 

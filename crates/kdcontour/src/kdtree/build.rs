@@ -241,19 +241,34 @@ fn build_node(
     if count == 0 {
         stack.truncate(base);
     }
-    material_border(ctx, arena, &mut node);
+    material_border(ctx, arena, &mut node, ids);
     arena.nodes.push(node);
     arena.edges.push(edges);
     ((arena.nodes.len() - 1) as u32, count)
 }
 
+/// How far across a material border (cells) a node's vertex may be from
+/// where the vertex of a cell next to the border is, for the node to stand in
+/// for that cell: the border is drawn halfway between vertices of its two
+/// sides, so it moves by half of this, an eighth of a cell, and the vertices
+/// of triangles across a border stay within a cell of it
+/// (`tests/materials.rs`). On the demo terrain's chunk (`material_borders`
+/// example, borders' cost over merged ones at threshold 0.01 / 1) 0.25 gives
+/// +29% / +165%, where cells alone next to every border gave +42% / +202%;
+/// 0.5 gives +17% / +126% but lets those vertices reach 1.4 cells.
+pub(crate) const BORDER_SHIFT: f32 = 0.25;
+
 /// Material borders as features: with materials tracked, the node's material
-/// code is its children's combined, and a node within a cell of a border
-/// ([`material::MIXED`]) enters it into its error, which becomes infinite: it is
-/// never a leaf at any threshold (nor `leaf_ok`), so the polygons around the
-/// border come from cells and from nodes whose every cell, and every cell
-/// next to one, has one dominant material. Cells themselves stay leaves.
-fn material_border(ctx: &Ctx, arena: &mut Arena, node: &mut KdNode) {
+/// code is its children's combined. A node that holds a border
+/// ([`material::MIXED`]: cells of two materials, or a cell whose crossings hold
+/// both) enters it into its error, which becomes infinite: it is never a leaf at
+/// any threshold (nor `leaf_ok`). A node of one material that holds cells next to
+/// a border ([`Hermite::cell_border`]) may stand in for them only where the
+/// border stays: the vertex nearest each such cell's vertex is within
+/// [`BORDER_SHIFT`] of it across the border (a node running along the border
+/// keeps it; one reaching away from it would drag the border along), or its
+/// error is infinite too. Cells themselves stay leaves.
+fn material_border(ctx: &Ctx, arena: &mut Arena, node: &mut KdNode, ids: &[u32]) {
     if ctx.h.cell_material.is_empty() {
         return;
     }
@@ -264,11 +279,43 @@ fn material_border(ctx: &Ctx, arena: &mut Arena, node: &mut KdNode) {
         .fold(material::UNSET, |m, &c| {
             material::combine(m, arena.material[c as usize])
         });
-    if code == material::MIXED {
+    arena.material.push(code);
+    if code == material::MIXED || (node.clusterable && moves_a_border(ctx, arena, node, ids)) {
         node.error = f32::INFINITY;
         node.leaf_ok = false;
     }
-    arena.material.push(code);
+}
+
+/// Whether a clustered node's vertices would move a material border: a cell of
+/// `ids` next to one has a patch whose nearest component vertex is more than
+/// [`BORDER_SHIFT`] from the patch's vertex across the border.
+fn moves_a_border(ctx: &Ctx, arena: &Arena, node: &KdNode, ids: &[u32]) -> bool {
+    let h = ctx.h;
+    let lo = Vec3::from_array(node.min.map(|v| v as f32));
+    let hi = Vec3::from_array(node.max.map(|v| v as f32));
+    let start = node.comp_start as usize;
+    let count = node.comp_count as usize;
+    let mut vertices = [Vec3::ZERO; 4];
+    for (k, v) in vertices.iter_mut().enumerate().take(count) {
+        *v = arena.comps[start + k].position(lo, hi);
+    }
+    let vertices = &vertices[..count];
+    ids.iter().any(|&id| {
+        let across = h.cell_border[id as usize];
+        if across == Vec3::ZERO {
+            return false;
+        }
+        let c = h.cells[id as usize];
+        let patches = ctx.tables.cell(c.config, c.mask).count as usize;
+        let base = c.patch_base as usize;
+        h.patch_vertex[base..base + patches].iter().any(|&v| {
+            let nearest = vertices
+                .iter()
+                .copied()
+                .min_by(|a, b| a.distance_squared(v).total_cmp(&b.distance_squared(v)));
+            nearest.is_some_and(|u| (u - v).dot(across).abs() > BORDER_SHIFT)
+        })
+    })
 }
 
 /// The faces of the grid (bits as [`open_faces`]) that the node `min..max` lies
