@@ -34,10 +34,11 @@ pub struct Settings {
     /// inside (default) or is closed by caps on the grid's faces (see [`Boundary`]).
     pub boundary: Boundary,
     /// Keep material borders crisp (default on): for a field with materials, a
-    /// node whose surface is within a cell of a border between dominant
-    /// materials is never a leaf, so no polygon spans more than about a cell
-    /// across a border ([`crate::material`]). Fields without materials are not
-    /// affected.
+    /// node whose surface spans a border between dominant materials is never a
+    /// leaf, and one beside a border only where its vertex keeps the border
+    /// where the cells put it (a quarter of a cell across it), so no polygon
+    /// spans more than about a cell across a border ([`crate::material`]).
+    /// Fields without materials are not affected.
     pub material_borders: bool,
     /// Carry the field's materials (default on): every tree keeps its
     /// components' material blends and meshes get one per vertex. Off, a field
