@@ -71,7 +71,7 @@ pub struct Hermite {
     /// material with a cell of another in the 3x3x3 block around it, the unit
     /// direction toward them (across the border); zero elsewhere. A node of the
     /// tree that holds such a cell may be a leaf only while its vertex keeps
-    /// the cell's distance to the border (`BORDER_SHIFT` in the tree's build).
+    /// the cell's distance to the border (`BORDER_SHIFT` in `kdtree/borders.rs`).
     pub(crate) cell_border: Vec<Vec3>,
     /// With [`Boundary::Capped`] and a solid that reaches the grid's faces, the
     /// grid the caps close (this data's grid less its caps); `None`

@@ -8,6 +8,7 @@
 //! may stand in for them. Cell leaves are made here.
 
 use super::arena::{Arena, Ctx, NO_EDGE};
+use super::borders;
 use super::cluster::cluster;
 use super::fold::refuse_folding_leaves;
 use super::split::{empty_cut, kd_split, EMPTY_CUT_CELLS};
@@ -16,7 +17,6 @@ use crate::boundary::open_faces;
 use crate::cell::{edge_corners, CellTables};
 use crate::field::Field;
 use crate::hermite::Hermite;
-use crate::material;
 use crate::qef::Qef;
 use crate::settings::Partition;
 use glam::Vec3;
@@ -142,8 +142,14 @@ fn build_node(
     let empty = (ctx.partition == Partition::KdTree && thick == 0 && ids.len() <= EMPTY_CUT_CELLS)
         .then(|| empty_cut(ctx, ids, min, max, &total))
         .flatten();
+    // A node holding a material border splits to set the border's cells, the
+    // strips beside it and the free regions apart (module `borders`).
+    let by_material = (ctx.partition == Partition::KdTree && thick == 0 && empty.is_none())
+        .then(|| borders::split(ctx, ids, min, max, &total))
+        .flatten();
     let (axis, split, ltotal, rtotal) = match ctx.partition {
         _ if empty.is_some() => empty.expect("just tested"),
+        _ if by_material.is_some() => by_material.expect("just tested"),
         Partition::KdTree if thick != 0 => slab_split(ctx, ids, min, max, thick),
         Partition::KdTree => kd_split(ctx, ids, min, max, &total),
         Partition::Octree => {
@@ -241,81 +247,10 @@ fn build_node(
     if count == 0 {
         stack.truncate(base);
     }
-    material_border(ctx, arena, &mut node, ids);
+    borders::mark(ctx, arena, &mut node, ids);
     arena.nodes.push(node);
     arena.edges.push(edges);
     ((arena.nodes.len() - 1) as u32, count)
-}
-
-/// How far across a material border (cells) a node's vertex may be from
-/// where the vertex of a cell next to the border is, for the node to stand in
-/// for that cell: the border is drawn halfway between vertices of its two
-/// sides, so it moves by half of this, an eighth of a cell, and the vertices
-/// of triangles across a border stay within a cell of it
-/// (`tests/materials.rs`). On the demo terrain's chunk (`material_borders`
-/// example, borders' cost over merged ones at threshold 0.01 / 1) 0.25 gives
-/// +29% / +165%, where cells alone next to every border gave +42% / +202%;
-/// 0.5 gives +17% / +126% but lets those vertices reach 1.4 cells.
-pub(crate) const BORDER_SHIFT: f32 = 0.25;
-
-/// Material borders as features: with materials tracked, the node's material
-/// code is its children's combined. A node that holds a border
-/// ([`material::MIXED`]: cells of two materials, or a cell whose crossings hold
-/// both) enters it into its error, which becomes infinite: it is never a leaf at
-/// any threshold (nor `leaf_ok`). A node of one material that holds cells next to
-/// a border ([`Hermite::cell_border`]) may stand in for them only where the
-/// border stays: the vertex nearest each such cell's vertex is within
-/// [`BORDER_SHIFT`] of it across the border (a node running along the border
-/// keeps it; one reaching away from it would drag the border along), or its
-/// error is infinite too. Cells themselves stay leaves.
-fn material_border(ctx: &Ctx, arena: &mut Arena, node: &mut KdNode, ids: &[u32]) {
-    if ctx.h.cell_material.is_empty() {
-        return;
-    }
-    let code = node
-        .children
-        .iter()
-        .filter(|&&c| c != NONE)
-        .fold(material::UNSET, |m, &c| {
-            material::combine(m, arena.material[c as usize])
-        });
-    arena.material.push(code);
-    if code == material::MIXED || (node.clusterable && moves_a_border(ctx, arena, node, ids)) {
-        node.error = f32::INFINITY;
-        node.leaf_ok = false;
-    }
-}
-
-/// Whether a clustered node's vertices would move a material border: a cell of
-/// `ids` next to one has a patch whose nearest component vertex is more than
-/// [`BORDER_SHIFT`] from the patch's vertex across the border.
-fn moves_a_border(ctx: &Ctx, arena: &Arena, node: &KdNode, ids: &[u32]) -> bool {
-    let h = ctx.h;
-    let lo = Vec3::from_array(node.min.map(|v| v as f32));
-    let hi = Vec3::from_array(node.max.map(|v| v as f32));
-    let start = node.comp_start as usize;
-    let count = node.comp_count as usize;
-    let mut vertices = [Vec3::ZERO; 4];
-    for (k, v) in vertices.iter_mut().enumerate().take(count) {
-        *v = arena.comps[start + k].position(lo, hi);
-    }
-    let vertices = &vertices[..count];
-    ids.iter().any(|&id| {
-        let across = h.cell_border[id as usize];
-        if across == Vec3::ZERO {
-            return false;
-        }
-        let c = h.cells[id as usize];
-        let patches = ctx.tables.cell(c.config, c.mask).count as usize;
-        let base = c.patch_base as usize;
-        h.patch_vertex[base..base + patches].iter().any(|&v| {
-            let nearest = vertices
-                .iter()
-                .copied()
-                .min_by(|a, b| a.distance_squared(v).total_cmp(&b.distance_squared(v)));
-            nearest.is_some_and(|u| (u - v).dot(across).abs() > BORDER_SHIFT)
-        })
-    })
 }
 
 /// The faces of the grid (bits as [`open_faces`]) that the node `min..max` lies

@@ -22,6 +22,7 @@
 //! [`crate::settings`]) live below this module and are re-exported here.
 
 mod arena;
+mod borders;
 mod build;
 mod cluster;
 mod contour;

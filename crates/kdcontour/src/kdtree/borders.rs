@@ -1,0 +1,223 @@
+//! Material borders in the tree: which nodes may stand in for the cells around a
+//! border ([`mark`]), and where a node that holds one splits ([`split`]).
+//!
+//! With materials tracked ([`Hermite::cell_material`]), a cell is one of three
+//! kinds: a border passes through it (its crossings hold two materials,
+//! [`material::MIXED`]); it is of one material beside such a cell or one of
+//! another material ([`Hermite::cell_border`] gives the direction across); or it
+//! is free. Nodes holding a border never become leaves; nodes beside one only
+//! where the border stays put; free regions merge as any surface does.
+
+use super::arena::{Arena, Ctx};
+use super::KdNode;
+use super::NONE;
+use crate::hermite::Hermite;
+use crate::material;
+use crate::qef::Qef;
+use glam::Vec3;
+
+/// How far across a material border (cells) a node's vertex may be from
+/// where the vertex of a cell next to the border is, for the node to stand in
+/// for that cell: the border is drawn halfway between vertices of its two
+/// sides, so it moves by half of this, an eighth of a cell, and the vertices
+/// of triangles across a border stay within a cell of it
+/// (`tests/materials.rs`). 0.5 cut a third more of what borders cost the demo
+/// terrain's chunk but let those vertices reach 1.4 cells.
+pub(crate) const BORDER_SHIFT: f32 = 0.25;
+
+/// Material borders as features: with materials tracked, the node's material
+/// code is its children's combined. A node that holds a border
+/// ([`material::MIXED`]: cells of two materials, or a cell whose crossings hold
+/// both) enters it into its error, which becomes infinite: it is never a leaf at
+/// any threshold (nor `leaf_ok`). A node of one material that holds cells next to
+/// a border ([`Hermite::cell_border`]) may stand in for them only where the
+/// border stays: the vertex nearest each such cell's vertex is within
+/// [`BORDER_SHIFT`] of it across the border (a node running along the border
+/// keeps it; one reaching away from it would drag the border along), or its
+/// error is infinite too. Cells themselves stay leaves.
+pub(super) fn mark(ctx: &Ctx, arena: &mut Arena, node: &mut KdNode, ids: &[u32]) {
+    if ctx.h.cell_material.is_empty() {
+        return;
+    }
+    let code = node
+        .children
+        .iter()
+        .filter(|&&c| c != NONE)
+        .fold(material::UNSET, |m, &c| {
+            material::combine(m, arena.material[c as usize])
+        });
+    arena.material.push(code);
+    if code == material::MIXED || (node.clusterable && moves_a_border(ctx, arena, node, ids)) {
+        node.error = f32::INFINITY;
+        node.leaf_ok = false;
+    }
+}
+
+/// Whether a clustered node's vertices would move a material border: a cell of
+/// `ids` next to one has a patch whose nearest component vertex is more than
+/// [`BORDER_SHIFT`] from the patch's vertex across the border.
+fn moves_a_border(ctx: &Ctx, arena: &Arena, node: &KdNode, ids: &[u32]) -> bool {
+    let h = ctx.h;
+    let lo = Vec3::from_array(node.min.map(|v| v as f32));
+    let hi = Vec3::from_array(node.max.map(|v| v as f32));
+    let start = node.comp_start as usize;
+    let count = node.comp_count as usize;
+    let mut vertices = [Vec3::ZERO; 4];
+    for (k, v) in vertices.iter_mut().enumerate().take(count) {
+        *v = arena.comps[start + k].position(lo, hi);
+    }
+    let vertices = &vertices[..count];
+    ids.iter().any(|&id| {
+        let across = h.cell_border[id as usize];
+        if across == Vec3::ZERO {
+            return false;
+        }
+        let c = h.cells[id as usize];
+        let patches = ctx.tables.cell(c.config, c.mask).count as usize;
+        let base = c.patch_base as usize;
+        h.patch_vertex[base..base + patches].iter().any(|&v| {
+            let nearest = vertices
+                .iter()
+                .copied()
+                .min_by(|a, b| a.distance_squared(v).total_cmp(&b.distance_squared(v)));
+            nearest.is_some_and(|u| (u - v).dot(across).abs() > BORDER_SHIFT)
+        })
+    })
+}
+
+/// What the cells of a region hold, for [`split`]: a cell a border passes
+/// through, cells beside a border (their materials combined), free cells
+/// (theirs combined), and how many cells.
+#[derive(Clone, Copy)]
+struct Kinds {
+    through: bool,
+    beside: Option<u16>,
+    free: Option<u16>,
+    cells: usize,
+}
+
+impl Kinds {
+    const NONE: Kinds = Kinds {
+        through: false,
+        beside: None,
+        free: None,
+        cells: 0,
+    };
+
+    fn of(h: &Hermite, id: u32) -> Kinds {
+        let code = h.cell_material[id as usize];
+        let mut k = Kinds {
+            cells: 1,
+            ..Kinds::NONE
+        };
+        if code == material::MIXED {
+            k.through = true;
+        } else if h.cell_border[id as usize] != Vec3::ZERO {
+            k.beside = Some(code);
+        } else {
+            k.free = Some(code);
+        }
+        k
+    }
+
+    fn add(self, o: Kinds) -> Kinds {
+        let join = |a: Option<u16>, b: Option<u16>| match (a, b) {
+            (Some(a), Some(b)) => Some(material::combine(a, b)),
+            (a, None) => a,
+            (None, b) => b,
+        };
+        Kinds {
+            through: self.through || o.through,
+            beside: join(self.beside, o.beside),
+            free: join(self.free, o.free),
+            cells: self.cells + o.cells,
+        }
+    }
+
+    /// One kind only, and one material: a region whose cells can all be
+    /// treated alike (cells on a border all stay cells; cells beside one merge
+    /// along it; free cells of one material merge freely).
+    fn alike(&self) -> bool {
+        let kinds = self.through as u8 + self.beside.is_some() as u8 + self.free.is_some() as u8;
+        kinds == 1 && self.beside != Some(material::MIXED) && self.free != Some(material::MIXED)
+    }
+}
+
+/// [`split`] must put at least one in this many of a node's cells into halves
+/// whose cells are alike; below that the node splits by its error (a split
+/// that peels off a few cells at a time would make the tree as deep as the node
+/// is wide). Half, measured against a quarter (`defects` example, terrain,
+/// caves and csg_mix at res 32 and 64, and their level worlds): a quarter cut
+/// more triangles (csg_mix at 64 and threshold 1: 2,780 against 2,998) but
+/// left more flipped faces on level seams (3,429 against 3,268).
+const SPLIT_SHARE: usize = 2;
+
+/// For a node whose cells are not alike (a border, the cells beside it and
+/// free cells together, or two materials): the plane that puts the most cells
+/// into halves whose cells are alike (at least half of them, [`SPLIT_SHARE`]), so
+/// the border's cells, the strips beside it and the free regions each become
+/// nodes of their own. `None` when materials are not tracked, the cells are
+/// alike, or no plane does it (the search by error decides). Returns the axis,
+/// the plane and the halves' QEFs.
+pub(super) fn split(
+    ctx: &Ctx,
+    ids: &[u32],
+    min: [u16; 3],
+    max: [u16; 3],
+    total: &Qef,
+) -> Option<(usize, u16, Qef, Qef)> {
+    let h = ctx.h;
+    if h.cell_material.is_empty() {
+        return None;
+    }
+    let whole = ids
+        .iter()
+        .fold(Kinds::NONE, |k, &id| k.add(Kinds::of(h, id)));
+    if whole.alike() {
+        return None;
+    }
+    // (cells in alike halves, axis, plane)
+    let mut best: Option<(usize, usize, u16)> = None;
+    let mut slabs = Vec::new();
+    let mut right = Vec::new();
+    for axis in 0..3 {
+        let len = (max[axis] - min[axis]) as usize;
+        if len <= 1 {
+            continue;
+        }
+        slabs.clear();
+        slabs.resize(len, Kinds::NONE);
+        for &id in ids {
+            let s = (h.cells[id as usize].coord[axis] - min[axis]) as usize;
+            slabs[s] = slabs[s].add(Kinds::of(h, id));
+        }
+        // `right[s]`: slabs `s..`.
+        right.clear();
+        right.extend_from_slice(&slabs);
+        for s in (0..len - 1).rev() {
+            right[s] = right[s].add(right[s + 1]);
+        }
+        let mut left = Kinds::NONE;
+        for s in 1..len {
+            left = left.add(slabs[s - 1]);
+            let r = right[s];
+            if left.cells == 0 || r.cells == 0 {
+                continue;
+            }
+            let alike = left.alike() as usize * left.cells + r.alike() as usize * r.cells;
+            if alike * SPLIT_SHARE >= ids.len() && best.is_none_or(|b| alike > b.0) {
+                best = Some((alike, axis, min[axis] + s as u16));
+            }
+        }
+    }
+    let (_, axis, plane) = best?;
+    let mut ltotal = Qef::ZERO;
+    for &id in ids {
+        if h.cells[id as usize].coord[axis] < plane {
+            ltotal += &ctx.cell_qef[id as usize];
+        }
+    }
+    let mut rtotal = *total;
+    rtotal -= &ltotal;
+    Some((axis, plane, ltotal, rtotal))
+}
