@@ -35,10 +35,16 @@ pub(crate) const BORDER_SHIFT: f32 = 0.25;
 /// [`BORDER_SHIFT`] of it across the border (a node running along the border
 /// keeps it; one reaching away from it would drag the border along), or its
 /// error is infinite too. Cells themselves stay leaves.
-pub(super) fn mark(ctx: &Ctx, arena: &mut Arena, node: &mut KdNode, ids: &[u32]) {
-    if ctx.h.cell_material.is_empty() {
+pub(super) fn mark(
+    ctx: &Ctx,
+    arena: &mut Arena,
+    node: &mut KdNode,
+    ids: &[u32],
+    kinds: Option<Kinds>,
+) {
+    let Some(kinds) = kinds else {
         return;
-    }
+    };
     let code = node
         .children
         .iter()
@@ -47,7 +53,10 @@ pub(super) fn mark(ctx: &Ctx, arena: &mut Arena, node: &mut KdNode, ids: &[u32])
             material::combine(m, arena.material[c as usize])
         });
     arena.material.push(code);
-    if code == material::MIXED || (node.clusterable && moves_a_border(ctx, arena, node, ids)) {
+    let beside = kinds.has_beside();
+    if code == material::MIXED
+        || (beside && node.clusterable && moves_a_border(ctx, arena, node, ids))
+    {
         node.error = f32::INFINITY;
         node.leaf_ok = false;
     }
@@ -85,25 +94,34 @@ fn moves_a_border(ctx: &Ctx, arena: &Arena, node: &KdNode, ids: &[u32]) -> bool 
     })
 }
 
-/// What the cells of a region hold, for [`split`]: a cell a border passes
-/// through, cells beside a border (their materials combined), free cells
-/// (theirs combined), and how many cells.
+/// What the cells of a region hold, for [`split`]: which kinds of cell
+/// (`THROUGH`, `BESIDE`, `FREE` bits), the materials of the cells beside a
+/// border and of the free cells, each combined ([`material::combine`];
+/// [`material::UNSET`] when none), and how many cells.
 #[derive(Clone, Copy)]
-struct Kinds {
-    through: bool,
-    beside: Option<u16>,
-    free: Option<u16>,
-    cells: usize,
+pub(super) struct Kinds {
+    flags: u8,
+    beside: u16,
+    free: u16,
+    cells: u32,
 }
+
+/// A cell a border passes through.
+const THROUGH: u8 = 1;
+/// A cell of one material beside a border.
+const BESIDE: u8 = 2;
+/// Any other cell.
+const FREE: u8 = 4;
 
 impl Kinds {
     const NONE: Kinds = Kinds {
-        through: false,
-        beside: None,
-        free: None,
+        flags: 0,
+        beside: material::UNSET,
+        free: material::UNSET,
         cells: 0,
     };
 
+    /// Active cell `id`'s.
     fn of(h: &Hermite, id: u32) -> Kinds {
         let code = h.cell_material[id as usize];
         let mut k = Kinds {
@@ -111,36 +129,69 @@ impl Kinds {
             ..Kinds::NONE
         };
         if code == material::MIXED {
-            k.through = true;
+            k.flags = THROUGH;
         } else if h.cell_border[id as usize] != Vec3::ZERO {
-            k.beside = Some(code);
+            k.flags = BESIDE;
+            k.beside = code;
         } else {
-            k.free = Some(code);
+            k.flags = FREE;
+            k.free = code;
         }
         k
     }
 
+    #[inline]
     fn add(self, o: Kinds) -> Kinds {
-        let join = |a: Option<u16>, b: Option<u16>| match (a, b) {
-            (Some(a), Some(b)) => Some(material::combine(a, b)),
-            (a, None) => a,
-            (None, b) => b,
-        };
         Kinds {
-            through: self.through || o.through,
-            beside: join(self.beside, o.beside),
-            free: join(self.free, o.free),
+            flags: self.flags | o.flags,
+            beside: material::combine(self.beside, o.beside),
+            free: material::combine(self.free, o.free),
             cells: self.cells + o.cells,
         }
+    }
+
+    /// Whether the region holds cells beside a border.
+    pub(super) fn has_beside(&self) -> bool {
+        self.flags & BESIDE != 0
     }
 
     /// One kind only, and one material: a region whose cells can all be
     /// treated alike (cells on a border all stay cells; cells beside one merge
     /// along it; free cells of one material merge freely).
     fn alike(&self) -> bool {
-        let kinds = self.through as u8 + self.beside.is_some() as u8 + self.free.is_some() as u8;
-        kinds == 1 && self.beside != Some(material::MIXED) && self.free != Some(material::MIXED)
+        self.flags.count_ones() == 1
+            && self.beside != material::MIXED
+            && self.free != material::MIXED
     }
+}
+
+thread_local! {
+    /// [`split`]'s slabs (three axes) and their suffix sums, reused across
+    /// nodes on each thread.
+    static SLABS: std::cell::RefCell<(Vec<Kinds>, Vec<Kinds>)> =
+        const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+}
+
+/// Each active cell's [`Kinds`] when materials are tracked (empty otherwise),
+/// read by every node's [`of_cells`].
+pub(super) fn cell_kinds(h: &Hermite) -> Vec<Kinds> {
+    if h.cell_material.is_empty() {
+        return Vec::new();
+    }
+    (0..h.cells.len() as u32)
+        .map(|id| Kinds::of(h, id))
+        .collect()
+}
+
+/// What the cells `ids` hold, when materials are tracked.
+pub(super) fn of_cells(ctx: &Ctx, ids: &[u32]) -> Option<Kinds> {
+    if ctx.kinds.is_empty() {
+        return None;
+    }
+    Some(
+        ids.iter()
+            .fold(Kinds::NONE, |k, &id| k.add(ctx.kinds[id as usize])),
+    )
 }
 
 /// [`split`] must put at least one in this many of a node's cells into halves
@@ -156,8 +207,8 @@ const SPLIT_SHARE: usize = 2;
 /// free cells together, or two materials): the plane that puts the most cells
 /// into halves whose cells are alike (at least half of them, [`SPLIT_SHARE`]), so
 /// the border's cells, the strips beside it and the free regions each become
-/// nodes of their own. `None` when materials are not tracked, the cells are
-/// alike, or no plane does it (the search by error decides). Returns the axis,
+/// nodes of their own. `None` when the cells are alike (`whole`: what they
+/// hold, [`of_cells`]), or no plane does it (the search by error decides). Returns the axis,
 /// the plane and the halves' QEFs.
 pub(super) fn split(
     ctx: &Ctx,
@@ -165,51 +216,59 @@ pub(super) fn split(
     min: [u16; 3],
     max: [u16; 3],
     total: &Qef,
+    whole: Kinds,
 ) -> Option<(usize, u16, Qef, Qef)> {
     let h = ctx.h;
-    if h.cell_material.is_empty() {
-        return None;
-    }
-    let whole = ids
-        .iter()
-        .fold(Kinds::NONE, |k, &id| k.add(Kinds::of(h, id)));
     if whole.alike() {
         return None;
     }
     // (cells in alike halves, axis, plane)
     let mut best: Option<(usize, usize, u16)> = None;
-    let mut slabs = Vec::new();
-    let mut right = Vec::new();
-    for axis in 0..3 {
-        let len = (max[axis] - min[axis]) as usize;
-        if len <= 1 {
-            continue;
-        }
+    let len = [0, 1, 2].map(|a| (max[a] - min[a]) as usize);
+    let start = [0, len[0], len[0] + len[1]];
+    let n = ids.len();
+    SLABS.with(|scratch| {
+        let (slabs, right) = &mut *scratch.borrow_mut();
+        // Every axis's slabs in one pass over the cells.
         slabs.clear();
-        slabs.resize(len, Kinds::NONE);
+        slabs.resize(start[2] + len[2], Kinds::NONE);
         for &id in ids {
-            let s = (h.cells[id as usize].coord[axis] - min[axis]) as usize;
-            slabs[s] = slabs[s].add(Kinds::of(h, id));
+            let c = h.cells[id as usize].coord;
+            let k = ctx.kinds[id as usize];
+            for a in 0..3 {
+                let s = start[a] + (c[a] - min[a]) as usize;
+                slabs[s] = slabs[s].add(k);
+            }
         }
-        // `right[s]`: slabs `s..`.
         right.clear();
-        right.extend_from_slice(&slabs);
-        for s in (0..len - 1).rev() {
-            right[s] = right[s].add(right[s + 1]);
-        }
-        let mut left = Kinds::NONE;
-        for s in 1..len {
-            left = left.add(slabs[s - 1]);
-            let r = right[s];
-            if left.cells == 0 || r.cells == 0 {
+        right.extend_from_slice(slabs);
+        for axis in 0..3 {
+            if len[axis] <= 1 {
                 continue;
             }
-            let alike = left.alike() as usize * left.cells + r.alike() as usize * r.cells;
-            if alike * SPLIT_SHARE >= ids.len() && best.is_none_or(|b| alike > b.0) {
-                best = Some((alike, axis, min[axis] + s as u16));
+            let (slab, right) = (
+                &slabs[start[axis]..start[axis] + len[axis]],
+                &mut right[start[axis]..start[axis] + len[axis]],
+            );
+            // `right[s]`: slabs `s..`.
+            for s in (0..len[axis] - 1).rev() {
+                right[s] = right[s].add(right[s + 1]);
+            }
+            let mut left = Kinds::NONE;
+            for s in 1..len[axis] {
+                left = left.add(slab[s - 1]);
+                let r = right[s];
+                if left.cells == 0 || r.cells == 0 {
+                    continue;
+                }
+                let alike = left.alike() as usize * left.cells as usize
+                    + r.alike() as usize * r.cells as usize;
+                if alike * SPLIT_SHARE >= n && best.is_none_or(|b| alike > b.0) {
+                    best = Some((alike, axis, min[axis] + s as u16));
+                }
             }
         }
-    }
+    });
     let (_, axis, plane) = best?;
     let mut ltotal = Qef::ZERO;
     for &id in ids {

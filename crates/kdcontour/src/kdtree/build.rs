@@ -67,6 +67,7 @@ pub(crate) fn build_in(
         cell_qef,
         tables,
         open,
+        kinds: borders::cell_kinds(h),
     };
     // At most about three nodes and components per active cell (measured: 2.3 on
     // disk_pole and terrain at 128, 3.1 on the sphere at 64, 3.2 on a 32³ terrain
@@ -144,8 +145,9 @@ fn build_node(
         .flatten();
     // A node holding a material border splits to set the border's cells, the
     // strips beside it and the free regions apart (module `borders`).
+    let kinds = borders::of_cells(ctx, ids);
     let by_material = (ctx.partition == Partition::KdTree && thick == 0 && empty.is_none())
-        .then(|| borders::split(ctx, ids, min, max, &total))
+        .then(|| kinds.and_then(|k| borders::split(ctx, ids, min, max, &total, k)))
         .flatten();
     let (axis, split, ltotal, rtotal) = match ctx.partition {
         _ if empty.is_some() => empty.expect("just tested"),
@@ -247,7 +249,7 @@ fn build_node(
     if count == 0 {
         stack.truncate(base);
     }
-    borders::mark(ctx, arena, &mut node, ids);
+    borders::mark(ctx, arena, &mut node, ids, kinds);
     arena.nodes.push(node);
     arena.edges.push(edges);
     ((arena.nodes.len() - 1) as u32, count)
