@@ -28,6 +28,17 @@ fn caves_everywhere(params: &DensityParams) -> DensityParams {
     }
 }
 
+/// A height field of rolling hills, 10 units high, 67 across.
+fn hills() -> Heightfield {
+    Heightfield::new(HeightfieldParams {
+        seed: 3,
+        base: 0.0,
+        amplitude: 10.0,
+        frequency: 0.015,
+        octaves: 5,
+    })
+}
+
 /// A point of the box `[lo, hi]` drawn from `rng`.
 fn point_in(rng: &mut Rng, lo: Vec3, hi: Vec3) -> Vec3 {
     let t = Vec3::new(rng.unit() as f32, rng.unit() as f32, rng.unit() as f32);
@@ -519,13 +530,7 @@ fn materials_from_a_known_gradient_are_the_fields_materials() {
     use crate::field::Field;
     let density: std::sync::Arc<dyn Field> =
         std::sync::Arc::new(Density::new(DensityParams::demo(7)));
-    let height = Heightfield::new(HeightfieldParams {
-        seed: 3,
-        base: 0.0,
-        amplitude: 10.0,
-        frequency: 0.015,
-        octaves: 5,
-    });
+    let height = hills();
     // An edited field: unedited, and with a brush that paints a region.
     let edited = EditedField::new(density.clone());
     let brush = Brush::sphere(Vec3::new(5.0, 0.0, 5.0), 6.0, BrushOp::Add).with_material(2);
@@ -570,13 +575,7 @@ fn materials_from_a_known_gradient_are_the_fields_materials() {
 #[test]
 fn a_height_fields_value_with_gradient_or_material_is_its_own_bit_for_bit() {
     use crate::field::Field;
-    let height = Heightfield::new(HeightfieldParams {
-        seed: 3,
-        base: 0.0,
-        amplitude: 10.0,
-        frequency: 0.015,
-        octaves: 5,
-    });
+    let height = hills();
     let mut rng = Rng(11);
     let far = NOISE_REACH as f32;
     let mut points: Vec<Vec3> = (0..4000)
