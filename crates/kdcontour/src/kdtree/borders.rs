@@ -77,10 +77,10 @@ fn moves_a_border(ctx: &Ctx, arena: &Arena, node: &KdNode, ids: &[u32]) -> bool 
     }
     let vertices = &vertices[..count];
     ids.iter().any(|&id| {
-        let across = h.cell_border[id as usize];
-        if across == Vec3::ZERO {
+        if !ctx.kinds[id as usize].has_beside() {
             return false;
         }
+        let across = h.cell_border[id as usize];
         let c = h.cells[id as usize];
         let patches = ctx.tables.cell(c.config, c.mask).count as usize;
         let base = c.patch_base as usize;
@@ -270,13 +270,6 @@ pub(super) fn split(
         }
     });
     let (_, axis, plane) = best?;
-    let mut ltotal = Qef::ZERO;
-    for &id in ids {
-        if h.cells[id as usize].coord[axis] < plane {
-            ltotal += &ctx.cell_qef[id as usize];
-        }
-    }
-    let mut rtotal = *total;
-    rtotal -= &ltotal;
+    let (ltotal, rtotal) = super::split::halves(ctx, ids, axis, plane, total);
     Some((axis, plane, ltotal, rtotal))
 }

@@ -100,14 +100,7 @@ pub(super) fn kd_split(
         let len = ext[axis] as usize;
         let s = occupied_mid(occ_lo[axis] as usize, occ_hi[axis] as usize, len).clamp(1, len - 1);
         let split = min[axis] + s as u16;
-        let mut ltotal = Qef::ZERO;
-        for &id in ids {
-            if ctx.h.cells[id as usize].coord[axis] < split {
-                ltotal += &ctx.cell_qef[id as usize];
-            }
-        }
-        let mut rtotal = total;
-        rtotal -= &ltotal;
+        let (ltotal, rtotal) = halves(ctx, ids, axis, split, &total);
         return (axis, split, ltotal, rtotal);
     }
     // Interval sums: one QEF per occupied slab along each axis, then prefix sums.
@@ -170,6 +163,20 @@ pub(super) fn kd_split(
 /// The middle of the slabs `occ_lo..=occ_hi` that hold cells, as a split position
 /// in `1..len` relative to the node; when all cells share one slab, the plane just
 /// above it (the split cuts the empty rest off in one step).
+/// The QEFs of the cells `ids` below `plane` along `axis` and of the rest
+/// (`total` less the first), for a split chosen without the slab sums.
+pub(super) fn halves(ctx: &Ctx, ids: &[u32], axis: usize, plane: u16, total: &Qef) -> (Qef, Qef) {
+    let mut below = Qef::ZERO;
+    for &id in ids {
+        if ctx.h.cells[id as usize].coord[axis] < plane {
+            below += &ctx.cell_qef[id as usize];
+        }
+    }
+    let mut rest = *total;
+    rest -= &below;
+    (below, rest)
+}
+
 fn occupied_mid(occ_lo: usize, occ_hi: usize, len: usize) -> usize {
     if occ_lo == occ_hi {
         if occ_lo + 1 < len {
