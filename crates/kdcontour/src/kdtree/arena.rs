@@ -78,6 +78,9 @@ pub(super) struct Ctx<'a> {
     /// Per active cell: the grid faces it lies on that the surface crosses there
     /// ([`crate::boundary::open_faces`]).
     pub(super) open: Vec<u8>,
+    /// Whether a cell of the tree has a bit in `open` (a chunk's core never does:
+    /// its halo holds the grid's faces).
+    pub(super) any_open: bool,
     /// Per active cell, when materials are tracked: what it is to a material
     /// border (module `borders`); empty otherwise.
     pub(super) kinds: Vec<super::borders::Kinds>,

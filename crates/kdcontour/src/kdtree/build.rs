@@ -56,16 +56,21 @@ pub(crate) fn build_in(
             q
         })
         .collect();
-    let open = h
+    let open: Vec<u8> = h
         .cells
         .par_iter()
         .map(|c| open_faces(h.grid.cells, c.coord, c.config))
+        .collect();
+    let inside = |c: &[u16; 3]| (0..3).all(|a| c[a] >= core_min[a] && c[a] < core_max[a]);
+    let mut ids: Vec<u32> = (0..h.cells.len() as u32)
+        .filter(|&i| inside(&h.cells[i as usize].coord))
         .collect();
     let ctx = Ctx {
         h,
         partition,
         cell_qef,
         tables,
+        any_open: ids.iter().any(|&i| open[i as usize] != 0),
         open,
         kinds: borders::cell_kinds(h),
     };
@@ -79,10 +84,6 @@ pub(crate) fn build_in(
         edges: Vec::with_capacity(h.cells.len() * 13 / 4),
         material: Vec::new(),
     };
-    let inside = |c: &[u16; 3]| (0..3).all(|a| c[a] >= core_min[a] && c[a] < core_max[a]);
-    let mut ids: Vec<u32> = (0..h.cells.len() as u32)
-        .filter(|&i| inside(&h.cells[i as usize].coord))
-        .collect();
     let root = if ids.is_empty() {
         NONE
     } else {
@@ -135,9 +136,13 @@ fn build_node(
     // Faces of the grid the surface leaves through, where this node is more than
     // a cell thick: it may not be a leaf (its mesh would stop short of the
     // boundary cells'), and the k-d tree splits the boundary slab off first.
-    let thick = thick_open_faces(ctx, ids, min, max);
-    let one_cell = ext == [1, 1, 1];
-    let straight = one_cell || thick != 0 || trace_straight(ctx, ids);
+    let open = if ctx.any_open {
+        ids.iter().fold(0u8, |acc, &id| acc | ctx.open[id as usize])
+    } else {
+        0
+    };
+    let thick = thick_open_faces(ctx, open, min, max);
+    let straight = thick != 0 || open == 0 || trace_straight(ctx, ids, open);
     // A small node whose cells leave part of its box empty cuts the largest
     // empty slab off first (module `split`).
     let empty = (ctx.partition == Partition::KdTree && thick == 0 && ids.len() <= EMPTY_CUT_CELLS)
@@ -256,9 +261,9 @@ fn build_node(
 }
 
 /// The faces of the grid (bits as [`open_faces`]) that the node `min..max` lies
-/// on, that the surface of its cells `ids` crosses, and across which it is more
-/// than one cell thick.
-fn thick_open_faces(ctx: &Ctx, ids: &[u32], min: [u16; 3], max: [u16; 3]) -> u8 {
+/// on, that the surface of its cells crosses (`open`: their bits together), and
+/// across which it is more than one cell thick.
+fn thick_open_faces(ctx: &Ctx, open: u8, min: [u16; 3], max: [u16; 3]) -> u8 {
     let n = ctx.h.grid.cells;
     let mut faces = 0u8;
     for a in 0..3 {
@@ -267,10 +272,7 @@ fn thick_open_faces(ctx: &Ctx, ids: &[u32], min: [u16; 3], max: [u16; 3]) -> u8 
             faces |= ((max[a] as u32 == n[a]) as u8) << (2 * a + 1);
         }
     }
-    if faces == 0 {
-        return 0;
-    }
-    ids.iter().fold(0u8, |acc, &id| acc | ctx.open[id as usize]) & faces
+    open & faces
 }
 
 /// The most the surface's normals may turn (radians) across a leaf's cells on
@@ -287,8 +289,9 @@ const TRACE_TURN: f32 = 1e-3;
 /// turning by less than a twentieth of a cell per leaf were), so there every
 /// leaf is a cell, as in the uniform mesh. A node with one crossing cell on a
 /// face says nothing of the turn and is not a leaf either.
-fn trace_straight(ctx: &Ctx, ids: &[u32]) -> bool {
-    for f in 0..6 {
+/// `open` is the cells' open faces together: only those are looked at.
+fn trace_straight(ctx: &Ctx, ids: &[u32], open: u8) -> bool {
+    for f in (0..6).filter(|f| open & (1 << f) != 0) {
         let a = f / 2;
         let mut normals = Vec::new();
         for &id in ids {
