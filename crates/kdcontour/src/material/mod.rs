@@ -122,17 +122,30 @@ impl MaterialBlend {
     /// repeat, their weights add; non-positive and NaN weights are dropped). No
     /// positive weight gives material 0.
     pub fn weighted(pairs: &[(u8, f32)]) -> MaterialBlend {
-        let mut acc: Vec<(u8, f32)> = Vec::with_capacity(pairs.len());
+        // A painted vertex or crossing has a handful of pairs: their sums live
+        // on the stack (this runs once per vertex and crossing).
+        let mut small = [(0u8, 0.0f32); 8];
+        let mut large = Vec::new();
+        let acc: &mut [(u8, f32)] = if pairs.len() <= small.len() {
+            &mut small
+        } else {
+            large.resize(pairs.len(), (0, 0.0));
+            &mut large
+        };
+        let mut n = 0;
         for &(id, w) in pairs {
             if w.is_nan() || w <= 0.0 {
                 continue;
             }
-            match acc.iter_mut().find(|(i, _)| *i == id) {
+            match acc[..n].iter_mut().find(|(i, _)| *i == id) {
                 Some(slot) => slot.1 += w,
-                None => acc.push((id, w)),
+                None => {
+                    acc[n] = (id, w);
+                    n += 1;
+                }
             }
         }
-        MaterialBlend::from_weights(&mut acc)
+        MaterialBlend::from_weights(&mut acc[..n])
     }
 
     /// The weight of material `id` (0 when absent).
