@@ -160,9 +160,6 @@ pub(super) fn kd_split(
     (axis, split, l, r)
 }
 
-/// The middle of the slabs `occ_lo..=occ_hi` that hold cells, as a split position
-/// in `1..len` relative to the node; when all cells share one slab, the plane just
-/// above it (the split cuts the empty rest off in one step).
 /// The QEFs of the cells `ids` below `plane` along `axis` and of the rest
 /// (`total` less the first), for a split chosen without the slab sums.
 pub(super) fn halves(ctx: &Ctx, ids: &[u32], axis: usize, plane: u16, total: &Qef) -> (Qef, Qef) {
@@ -177,6 +174,9 @@ pub(super) fn halves(ctx: &Ctx, ids: &[u32], axis: usize, plane: u16, total: &Qe
     (below, rest)
 }
 
+/// The middle of the slabs `occ_lo..=occ_hi` that hold cells, as a split position
+/// in `1..len` relative to the node; when all cells share one slab, the plane just
+/// above it (the split cuts the empty rest off in one step).
 fn occupied_mid(occ_lo: usize, occ_hi: usize, len: usize) -> usize {
     if occ_lo == occ_hi {
         if occ_lo + 1 < len {
