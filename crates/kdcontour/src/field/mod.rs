@@ -110,6 +110,15 @@ pub trait Field: Send + Sync {
         self.material(p)
     }
 
+    /// [`Field::gradient`] and [`Field::material`] at `p` together (the Hermite
+    /// stage needs both at every crossing when it keeps material borders): fields
+    /// whose material and gradient share work compute it once. By default the
+    /// gradient, then [`Field::material_with_gradient`].
+    fn gradient_and_material(&self, p: Vec3) -> (Vec3, MaterialBlend) {
+        let g = self.gradient(p);
+        (g, self.material_with_gradient(p, g))
+    }
+
     /// Whether the field has materials: meshes then carry one blend per vertex
     /// and the tree keeps material borders crisp. `false` by default.
     fn has_materials(&self) -> bool {
@@ -179,6 +188,9 @@ macro_rules! forward_field {
             fn material_with_gradient(&self, p: Vec3, gradient: Vec3) -> MaterialBlend {
                 (**self).material_with_gradient(p, gradient)
             }
+            fn gradient_and_material(&self, p: Vec3) -> (Vec3, MaterialBlend) {
+                (**self).gradient_and_material(p)
+            }
             fn has_materials(&self) -> bool {
                 (**self).has_materials()
             }
@@ -225,6 +237,9 @@ impl Field for IsoShift {
     }
     fn material_with_gradient(&self, p: Vec3, gradient: Vec3) -> MaterialBlend {
         self.inner.material_with_gradient(p, gradient)
+    }
+    fn gradient_and_material(&self, p: Vec3) -> (Vec3, MaterialBlend) {
+        self.inner.gradient_and_material(p)
     }
     fn has_materials(&self) -> bool {
         self.inner.has_materials()

@@ -135,7 +135,12 @@ pub(super) fn crossings(
                     let (t, forced) = find_root(field, grid, p0, dir, v0, v1, iterations)?;
                     let point = p0 + dir * t;
                     let wp = grid.to_world(point);
-                    let grad = field.gradient(wp);
+                    let (grad, blend) = if borders {
+                        let (g, m) = field.gradient_and_material(wp);
+                        (g, Some(m))
+                    } else {
+                        (field.gradient(wp), None)
+                    };
                     let outward = if v1 >= 0.0 { dir } else { -dir };
                     let normal = if grad.is_finite() && grad.length_squared() > 1e-20 {
                         grad.normalize()
@@ -144,7 +149,7 @@ pub(super) fn crossings(
                     };
                     // Only a pure material counts toward a border (see
                     // [`material::PURE`]).
-                    let material = match borders.then(|| field.material_with_gradient(wp, grad)) {
+                    let material = match blend {
                         Some(m) if m.weights[0] >= material::PURE => m.dominant() as u16,
                         _ => material::UNSET,
                     };
