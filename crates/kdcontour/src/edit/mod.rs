@@ -303,6 +303,22 @@ impl Field for EditedField {
         }
     }
 
+    /// Unedited, the base field's; with brushes, [`Field::sample_grid`] (a
+    /// brush can bring a corner the base proved far back near the surface).
+    fn sample_grid_far(
+        &self,
+        grid: &crate::grid::Grid,
+        z_range: std::ops::Range<u32>,
+        out: &mut [f32],
+        far: f32,
+    ) {
+        if self.edits.is_empty() {
+            self.base.sample_grid_far(grid, z_range, out, far);
+        } else {
+            self.sample_grid(grid, z_range, out);
+        }
+    }
+
     /// The base field's own gradient where no brush is active (analytic where the
     /// base has one), the active brush's where one is.
     fn gradient(&self, p: Vec3) -> Vec3 {

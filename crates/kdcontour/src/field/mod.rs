@@ -87,6 +87,22 @@ pub trait Field: Send + Sync {
         sample_each(grid, z_range, out, |p| self.value(p));
     }
 
+    /// [`Field::sample_grid`] for the build's sampling stage, which needs exact
+    /// values only near the surface: a corner whose value is provably more than
+    /// `far` from zero may hold [`crate::grid::FAR`] with the value's sign instead
+    /// (the build evaluates such a corner where it needs the value). By default
+    /// [`Field::sample_grid`].
+    fn sample_grid_far(
+        &self,
+        grid: &Grid,
+        z_range: std::ops::Range<u32>,
+        out: &mut [f32],
+        far: f32,
+    ) {
+        let _ = far;
+        self.sample_grid(grid, z_range, out)
+    }
+
     /// Why the value at `p` is not finite, when the field can tell (a scene's
     /// noise node evaluated beyond its reach names its node path and what would
     /// be valid); the error of a non-finite sample carries it. `None` by default.
@@ -173,6 +189,15 @@ macro_rules! forward_field {
             fn sample_grid(&self, grid: &Grid, z_range: std::ops::Range<u32>, out: &mut [f32]) {
                 (**self).sample_grid(grid, z_range, out)
             }
+            fn sample_grid_far(
+                &self,
+                grid: &Grid,
+                z_range: std::ops::Range<u32>,
+                out: &mut [f32],
+                far: f32,
+            ) {
+                (**self).sample_grid_far(grid, z_range, out, far)
+            }
             fn lipschitz(&self) -> Option<f32> {
                 (**self).lipschitz()
             }
@@ -219,6 +244,21 @@ impl Field for IsoShift {
     fn sample_grid(&self, grid: &Grid, z_range: std::ops::Range<u32>, out: &mut [f32]) {
         self.inner.sample_grid(grid, z_range, out);
         for v in out.iter_mut() {
+            *v -= self.iso;
+        }
+    }
+    /// The inner field's, proved far by `|iso|` more, so a corner it skips is
+    /// still more than `far` from the shifted surface.
+    fn sample_grid_far(
+        &self,
+        grid: &Grid,
+        z_range: std::ops::Range<u32>,
+        out: &mut [f32],
+        far: f32,
+    ) {
+        self.inner
+            .sample_grid_far(grid, z_range, out, far + self.iso.abs());
+        for v in out.iter_mut().filter(|v| v.abs() != crate::grid::FAR) {
             *v -= self.iso;
         }
     }

@@ -538,7 +538,19 @@ impl Field for Density {
         z_range: std::ops::Range<u32>,
         out: &mut [f32],
     ) {
-        self.sample_rows(grid, z_range, out);
+        self.sample_rows(grid, z_range, out, None);
+    }
+
+    /// Row by row: in the sky more than `far` above the surface the fBm's
+    /// octaves stop once the ones summed prove it (module `rows`).
+    fn sample_grid_far(
+        &self,
+        grid: &crate::grid::Grid,
+        z_range: std::ops::Range<u32>,
+        out: &mut [f32],
+        far: f32,
+    ) {
+        self.sample_rows(grid, z_range, out, Some(far));
     }
 
     /// By slope, height, a noise mask and cave walls (see

@@ -89,7 +89,13 @@ pub fn sample(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<Vec
     Ok(values)
 }
 
-/// Samples with [`Field::sample_grid`] in parallel z slabs, except the planes of
+/// How far from zero, in cells times the cell size, a sample may be proved
+/// before the field may give it as [`FAR`] ([`Field::sample_grid_far`]): twice
+/// what a field of slope 1 changes along an edge, so the ends of crossing edges
+/// (which the build evaluates again when skipped) rarely are.
+const FAR_CELLS: f32 = 2.0;
+
+/// Samples with [`Field::sample_grid_far`] in parallel z slabs, except the planes of
 /// corners at one y (whole xz planes) below the lowest or above the highest plane
 /// that [`Field::bound`] cannot prove one-signed: those get `FAR` with their
 /// sign, as skipped blocks do (a terrain chunk far larger than its hills'
@@ -125,6 +131,7 @@ fn sample_planes(field: &dyn Field, grid: &Grid, values: &mut [f32]) {
         ..*grid
     };
     let whole = ya == 0 && yb + 1 == c.y as usize;
+    let far = FAR_CELLS * grid.cell_size;
     let sub_slab = (c.x as usize) * (yb - ya + 1);
     values
         .par_chunks_mut(slab * SLICES as usize)
@@ -133,11 +140,11 @@ fn sample_planes(field: &dyn Field, grid: &Grid, values: &mut [f32]) {
             let z0 = i as u32 * SLICES;
             let z1 = (z0 + SLICES).min(c.z);
             if whole {
-                field.sample_grid(grid, z0..z1, out);
+                field.sample_grid_far(grid, z0..z1, out, far);
                 return;
             }
             let mut part = vec![0f32; sub_slab * (z1 - z0) as usize];
-            field.sample_grid(&sub, z0..z1, &mut part);
+            field.sample_grid_far(&sub, z0..z1, &mut part, far);
             let cx = c.x as usize;
             for (out, part) in out.chunks_mut(slab).zip(part.chunks(sub_slab)) {
                 for (y, row) in out.chunks_mut(cx).enumerate() {

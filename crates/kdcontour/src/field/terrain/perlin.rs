@@ -217,6 +217,17 @@ impl Perlin3 {
     }
 }
 
+/// Buffers of [`Fbm3::get_row_below`], reused from row to row: the points still
+/// in (their index in the row, their x in noise units, their sum so far) and one
+/// octave's signal.
+#[derive(Default)]
+pub(super) struct RowBelow {
+    index: Vec<u32>,
+    point: Vec<f64>,
+    sum: Vec<f64>,
+    signal: Vec<f64>,
+}
+
 /// `Fbm<Perlin>` with persistence 0.5 and lacunarity 2 (as [`super::fbm`] builds
 /// it): its values, bit for bit.
 #[derive(Clone)]
@@ -289,6 +300,74 @@ impl Fbm3 {
         }
         for r in out.iter_mut() {
             *r *= self.scale;
+        }
+    }
+
+    /// [`Fbm3::get_row`], except that a point whose value the octaves summed so
+    /// far prove to be below `below` (each octave still to come adds at most its
+    /// weight: Perlin noise is within `[-1, 1]`) is dropped after that octave and
+    /// gets NaN in `out`. The others get [`Fbm3::get`]'s value bit for bit.
+    pub(super) fn get_row_below(
+        &self,
+        xs: &[f64],
+        y: f64,
+        z: f64,
+        below: f64,
+        out: &mut [f64],
+        s: &mut RowBelow,
+    ) {
+        let n = xs.len();
+        s.index.clear();
+        s.index.extend(0..n as u32);
+        s.point.clear();
+        s.point.extend(xs.iter().map(|x| x * self.frequency));
+        s.sum.clear();
+        s.sum.resize(n, 0.0);
+        s.signal.resize(n, 0.0);
+        let (mut y, mut z) = (y * self.frequency, z * self.frequency);
+        let mut attenuation = 0.5;
+        let last = self.octaves.len().saturating_sub(1);
+        for (i, octave) in self.octaves.iter().enumerate() {
+            let m = s.index.len();
+            octave.get_row(&s.point[..m], y, z, &mut s.signal[..m]);
+            // The operations of `get`, on the points still in.
+            for (r, g) in s.sum.iter_mut().zip(&s.signal[..m]) {
+                *r += g * attenuation;
+            }
+            attenuation *= 0.5;
+            for x in s.point.iter_mut() {
+                *x *= 2.0;
+            }
+            (y, z) = (y * 2.0, z * 2.0);
+            if i == last {
+                break;
+            }
+            // The most the octaves after this one add, widened far past rounding.
+            let rest: f64 = (0..last - i)
+                .map(|j| attenuation * 0.5f64.powi(j as i32))
+                .sum();
+            let slack = 1e-9 * (1.0 + below.abs());
+            let lowest = s.sum.iter().fold(f64::INFINITY, |a, &b| a.min(b));
+            if (lowest + rest) * self.scale + slack >= below {
+                continue;
+            }
+            let mut kept = 0;
+            for r in 0..m {
+                if (s.sum[r] + rest) * self.scale + slack < below {
+                    out[s.index[r] as usize] = f64::NAN;
+                    continue;
+                }
+                s.index[kept] = s.index[r];
+                s.sum[kept] = s.sum[r];
+                s.point[kept] = s.point[r];
+                kept += 1;
+            }
+            s.index.truncate(kept);
+            s.sum.truncate(kept);
+            s.point.truncate(kept);
+        }
+        for (r, &i) in s.sum.iter().zip(&s.index) {
+            out[i as usize] = r * self.scale;
         }
     }
 

@@ -8,7 +8,7 @@
 
 use super::Density;
 use crate::field::Field;
-use crate::grid::Grid;
+use crate::grid::{Grid, FAR};
 use glam::{UVec3, Vec3};
 
 /// Buffers reused from row to row.
@@ -18,8 +18,10 @@ struct RowScratch {
     /// The row's x in f64, and its fBm.
     xs: Vec<f64>,
     fbm: Vec<f64>,
-    /// Scratch of [`super::perlin::Fbm3::get_row`].
+    /// Scratch of [`super::perlin::Fbm3::get_row`] and of
+    /// [`super::perlin::Fbm3::get_row_below`].
     octave: Vec<f64>,
+    below: super::perlin::RowBelow,
     /// The row's points that need the first cave noise, and that noise.
     first: Vec<usize>,
     n1: Vec<f64>,
@@ -35,7 +37,17 @@ struct RowScratch {
 impl Density {
     /// Samples the corners of `grid` with z in `z_range` into `out` (x fastest),
     /// row by row: [`Field::sample_grid`].
-    pub(super) fn sample_rows(&self, grid: &Grid, z_range: std::ops::Range<u32>, out: &mut [f32]) {
+    /// With `far`, a corner whose surface term the fBm's first octaves prove to
+    /// be more than `far` (the sky, well above the surface) gets
+    /// [`crate::grid::FAR`] instead: the tunnel term cannot lower the value
+    /// below the surface term, so its sign is exact.
+    pub(super) fn sample_rows(
+        &self,
+        grid: &Grid,
+        z_range: std::ops::Range<u32>,
+        out: &mut [f32],
+        far: Option<f32>,
+    ) {
         let c = grid.corners();
         let mut s = RowScratch::default();
         let rows = z_range.flat_map(|z| (0..c.y).map(move |y| (y, z)));
@@ -43,12 +55,14 @@ impl Density {
             s.positions.clear();
             s.positions
                 .extend((0..c.x).map(|x| grid.corner_pos(UVec3::new(x, y, z))));
-            self.value_row(out, &mut s);
+            self.value_row(out, &mut s, far);
         }
     }
 
-    /// [`Field::value`] at every point of `s.positions` (one y and z) into `out`.
-    fn value_row(&self, out: &mut [f32], s: &mut RowScratch) {
+    /// [`Field::value`] at every point of `s.positions` (one y and z) into `out`;
+    /// with `far`, [`crate::grid::FAR`] where the surface term is provably above
+    /// `far` ([`Density::sample_rows`]).
+    fn value_row(&self, out: &mut [f32], s: &mut RowScratch, far: Option<f32>) {
         let ps = &s.positions;
         let Some(first) = ps.first() else {
             return;
@@ -66,10 +80,21 @@ impl Density {
         s.xs.clear();
         s.xs.extend(ps.iter().map(|p| p.x as f64));
         s.fbm.resize(ps.len(), 0.0);
-        self.noise
-            .get_row(&s.xs, y64, z64, &mut s.fbm, &mut s.octave);
+        let amp = self.params.amplitude;
+        match far {
+            // `solid > far` where `amp * fbm < y - base - far`; the f32 rounding
+            // of the surface term is far below the margin.
+            Some(far) if amp > 0.0 => {
+                let below = (y64 - self.params.base as f64 - far as f64) / amp as f64;
+                self.noise
+                    .get_row_below(&s.xs, y64, z64, below, &mut s.fbm, &mut s.below);
+            }
+            _ => self
+                .noise
+                .get_row(&s.xs, y64, z64, &mut s.fbm, &mut s.octave),
+        }
         for (o, n) in out.iter_mut().zip(&s.fbm) {
-            *o = self.solid(y, *n);
+            *o = if n.is_nan() { FAR } else { self.solid(y, *n) };
         }
         let (Some(c), Some((a, b))) = (&self.params.caves, &self.caves) else {
             return;
@@ -80,7 +105,7 @@ impl Density {
         let (yc, zc) = (y64 * f, z64 * f);
         s.first.clear();
         s.first
-            .extend((0..ps.len()).filter(|&i| !self.solid_decides(out[i]).0));
+            .extend((0..ps.len()).filter(|&i| out[i] != FAR && !self.solid_decides(out[i]).0));
         s.cave_xs.clear();
         s.cave_xs.extend(s.first.iter().map(|&i| s.xs[i] * f));
         s.n1.resize(s.first.len(), 0.0);

@@ -461,6 +461,7 @@ fn batched_sampling_is_the_value_bit_for_bit() {
     };
     let mut sampled = 0usize;
     let mut tunnels = 0usize;
+    let mut skipped = 0usize;
     for params in [demo.clone(), caves_everywhere(&demo), no_caves] {
         let d = Density::new(params);
         for k in 0..24 {
@@ -501,6 +502,20 @@ fn batched_sampling_is_the_value_bit_for_bit() {
                 }
             }
             sampled += i;
+            // The build's sampling: the same values, or FAR where the value is
+            // provably more than `far` (only in the sky).
+            for far in [0.5, 2.0 * cell_size] {
+                let mut coarse = vec![0f32; out.len()];
+                d.sample_grid_far(&grid, 0..c.z, &mut coarse, far);
+                for (k, (&a, &b)) in coarse.iter().zip(&out).enumerate() {
+                    if a == crate::grid::FAR {
+                        assert!(b > far, "corner {k}: {b} given as far from {far}");
+                        skipped += 1;
+                    } else {
+                        assert_eq!(a.to_bits(), b.to_bits(), "corner {k}");
+                    }
+                }
+            }
             // A z sub-range fills only its slabs.
             let mut part = vec![0f32; (c.x * c.y) as usize];
             d.sample_grid(&grid, 1..2, &mut part);
@@ -508,8 +523,8 @@ fn batched_sampling_is_the_value_bit_for_bit() {
         }
     }
     assert!(
-        sampled > 20_000 && tunnels > 0,
-        "{sampled} corners, {tunnels} in tunnels"
+        sampled > 20_000 && tunnels > 0 && skipped > sampled / 10,
+        "{sampled} corners, {tunnels} in tunnels, {skipped} skipped"
     );
     // Out of the noise's reach: NaN, as `value` gives.
     let d = Density::new(DensityParams::demo(1));
