@@ -11,6 +11,8 @@
 //! The scene `demo` is a chunk of the terrain demo's field (3-D noise with
 //! overhangs and caves, [`scenes::demo_chunk`]), built as a world builds it;
 //! `demo:L` is one of chunk level `L` (cells `2^L` wide) through the surface.
+//! A fifth argument `0` turns crisp material borders off, as the plugin's
+//! terrain demo does: `stages demo 32 50 1 0`.
 
 use kdcontour::pipeline::{self, Cells};
 use kdcontour::{hermite, scenes, Field, Grid, IndexedMesh, Settings};
@@ -59,8 +61,10 @@ fn main() {
     } else {
         (grid, Cells::All)
     };
+    let material_borders = args.next().is_none_or(|s| s != "0");
     let settings = Settings {
         threads,
+        material_borders,
         ..Default::default()
     };
     let ms = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e3;
