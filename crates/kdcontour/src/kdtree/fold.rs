@@ -78,10 +78,9 @@ impl Rung {
     }
 
     /// Looks up the vertex and normal of a tree node's rung.
-    fn place(&mut self, tree: &KdTree) {
+    fn place(&mut self, tree: &KdTree, links: &Links) {
         let n = &tree.nodes[self.node as usize];
-        self.pos = tree.comp_position(self.node, self.local);
-        self.normal = tree.comps[(n.comp_start + self.local as u32) as usize].normal();
+        (self.pos, self.normal) = links.placed[(n.comp_start + self.local as u32) as usize];
     }
 }
 
@@ -235,6 +234,9 @@ struct Links<'a> {
     /// clusterable nodes only (as [`climb`] does): a cell whose parent has
     /// none is its own polygon corner at every threshold.
     reach: Vec<bool>,
+    /// Per component of the tree: its vertex and unit normal, decoded once
+    /// (a big node's components are corners of many edges' polygons).
+    placed: Vec<(Vec3, Vec3)>,
 }
 
 impl<'a> Links<'a> {
@@ -257,6 +259,7 @@ impl<'a> Links<'a> {
             up: Vec::new(),
             depth: Vec::new(),
             reach: Vec::new(),
+            placed: Vec::new(),
         };
         for (i, node) in tree.nodes.iter().enumerate() {
             if node.axis == CELL {
@@ -282,6 +285,18 @@ impl<'a> Links<'a> {
                 depth[i] = depth[up[i] as usize] + 1;
             }
         }
+        let mut placed = vec![(Vec3::ZERO, Vec3::ZERO); tree.comps.len()];
+        for (i, node) in tree.nodes.iter().enumerate() {
+            let (lo, hi) = tree.node_box(i as u32);
+            let start = node.comp_start as usize;
+            for (k, c) in tree.comps[start..start + node.comp_count as usize]
+                .iter()
+                .enumerate()
+            {
+                placed[start + k] = (c.position(lo, hi), c.normal());
+            }
+        }
+        links.placed = placed;
         links.node_of = node_of;
         links.up = up;
         links.depth = depth;
@@ -359,7 +374,6 @@ impl<'a> Links<'a> {
 #[derive(Default)]
 struct Scratch {
     ladders: [Vec<Rung>; 4],
-    errors: Vec<f32>,
     /// The nodes this edge refused.
     refused: Vec<u32>,
 }
@@ -472,29 +486,29 @@ fn check_edge(
     for (q, l) in s.ladders.iter_mut().enumerate() {
         match halo_cells[q] {
             Some(found) => l.push(links.rung(found, q)),
-            None => l.iter_mut().for_each(|r| r.place(tree)),
+            None => l.iter_mut().for_each(|r| r.place(tree, links)),
         }
     }
     let inside_low = !tree.is_outside(line);
-    s.errors.clear();
-    for l in &s.ladders {
-        s.errors.extend(l[1..].iter().map(|r| r.error));
-    }
-    s.errors.sort_unstable_by(f32::total_cmp);
-    s.errors.dedup();
-    // Per corner, its current rung: the highest within the threshold.
+    // Per corner, its current rung: the highest within the threshold. Each
+    // ladder's errors grow going up, so the thresholds at which the polygon
+    // changes are those of the corners' next rungs, lowest first: the four
+    // ladders are merged as the sweep goes.
     let mut at = [0usize; 4];
-    for &t in &s.errors {
+    loop {
+        let next = (0..4).filter_map(|q| s.ladders[q].get(at[q] + 1).map(|r| r.error));
+        let Some(t) = next.min_by(f32::total_cmp) else {
+            break;
+        };
         let before = at;
         for (q, l) in s.ladders.iter().enumerate() {
             while at[q] + 1 < l.len() && l[at[q] + 1].error <= t {
                 at[q] += 1;
             }
         }
-        // No corner climbed (its rung was refused): the polygon is the one
-        // already looked at.
+        // No corner can climb (the errors left are not numbers).
         if at == before {
-            continue;
+            break;
         }
         // Two corners in one leaf stay in one leaf as the threshold grows (their
         // paths above it are the same): once the polygon has collapsed to fewer
