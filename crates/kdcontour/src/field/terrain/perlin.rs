@@ -173,7 +173,11 @@ impl Perlin3 {
         }
     }
 
-    /// Value and gradient at `q` (noise units).
+    /// Value and gradient at `q` (noise units): `v = sum_i W_i n_i` over the
+    /// cell's eight corners (blend weights `W_i`, gradient terms `n_i = k_i . p_i`),
+    /// so `grad v = sum_i W_i k_i` plus, along each axis, the blend's slope times
+    /// the difference of the corner terms across that axis, blended over the
+    /// other two (the value to within rounding of [`Perlin3::get`]).
     pub(super) fn get_grad(&self, q: DVec3) -> (f64, DVec3) {
         let c = [lattice(q.x), lattice(q.y), lattice(q.z)];
         let d = [q.x - c[0] as f64, q.y - c[1] as f64, q.z - c[2] as f64];
@@ -182,37 +186,42 @@ impl Perlin3 {
             let t = t.clamp(0.0, 1.0);
             30.0 * t * t * (t - 1.0) * (t - 1.0)
         });
+        let p = |i: usize| self.perm[i & 0xff] as usize;
+        let b = [0, 1, 2].map(|a| [c[a] as usize & 0xff, (c[a] + 1) as usize & 0xff]);
+        // Corner `i = ox + 2 oy + 4 oz`: its gradient and its term.
+        let mut k = [[0.0f64; 3]; 8];
+        let mut n = [0.0f64; 8];
+        for i in 0..8usize {
+            let o = [i & 1, (i >> 1) & 1, i >> 2];
+            let g = GRADS[p(p(p(b[0][o[0]]) ^ b[1][o[1]]) ^ b[2][o[2]]) & 15];
+            n[i] = g[0] * (d[0] - o[0] as f64)
+                + g[1] * (d[1] - o[1] as f64)
+                + g[2] * (d[2] - o[2] as f64);
+            k[i] = g;
+        }
+        let w = [0, 1, 2].map(|a| [1.0 - s[a], s[a]]);
+        let lerp = |a: f64, b: f64, t: f64| a + t * (b - a);
+        // `f` blended over two axes with blends `t` and `u`, `f(j, l)` the value
+        // at offsets `j` (along the first) and `l`.
+        let bilerp = |f: &dyn Fn(usize, usize) -> f64, t: f64, u: f64| {
+            lerp(lerp(f(0, 0), f(1, 0), t), lerp(f(0, 1), f(1, 1), t), u)
+        };
         let (mut v, mut g) = (0.0, [0.0f64; 3]);
         for i in 0..8usize {
-            let o = [i & 1, (i >> 1) & 1, (i >> 2) & 1];
-            let k = GRADS[self.hash(
-                c[0] + o[0] as isize,
-                c[1] + o[1] as isize,
-                c[2] + o[2] as isize,
-            ) & 15];
-            let p = [d[0] - o[0] as f64, d[1] - o[1] as f64, d[2] - o[2] as f64];
-            let n = k[0] * p[0] + k[1] * p[1] + k[2] * p[2];
-            // Blend weights of this corner along each axis, and their slopes.
-            let mut w = [0.0; 3];
-            let mut dw = [0.0; 3];
+            let weight = w[0][i & 1] * w[1][(i >> 1) & 1] * w[2][i >> 2];
+            v += weight * n[i];
             for a in 0..3 {
-                (w[a], dw[a]) = if o[a] == 1 {
-                    (s[a], ds[a])
-                } else {
-                    (1.0 - s[a], -ds[a])
-                };
+                g[a] += weight * k[i][a];
             }
-            let weight = w[0] * w[1] * w[2];
-            v += weight * n;
-            g[0] += dw[0] * w[1] * w[2] * n + k[0] * weight;
-            g[1] += w[0] * dw[1] * w[2] * n + k[1] * weight;
-            g[2] += w[0] * w[1] * dw[2] * n + k[2] * weight;
         }
         let v = v * SCALE_FACTOR;
         if v.abs() > 1.0 {
             // `perlin_3d` clamps to [-1, 1]: flat where it clamps.
             return (v.clamp(-1.0, 1.0), DVec3::ZERO);
         }
+        g[0] += ds[0] * bilerp(&|j, l| n[1 + 2 * j + 4 * l] - n[2 * j + 4 * l], s[1], s[2]);
+        g[1] += ds[1] * bilerp(&|j, l| n[j + 2 + 4 * l] - n[j + 4 * l], s[0], s[2]);
+        g[2] += ds[2] * bilerp(&|j, l| n[j + 2 * l + 4] - n[j + 2 * l], s[0], s[1]);
         (v, DVec3::from_array(g) * SCALE_FACTOR)
     }
 }
