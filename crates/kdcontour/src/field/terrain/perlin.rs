@@ -142,24 +142,40 @@ impl Perlin3 {
         let yb = [cy as usize & 0xff, (cy + 1) as usize & 0xff];
         let zb = [cz as usize & 0xff, (cz + 1) as usize & 0xff];
         let p = |i: usize| self.perm[i & 0xff] as usize;
-        // The terms of the cell `cx`, by corner `ox + 2 oy + 4 oz`.
+        // The terms of the cell `cx`, by corner `ox + 2 oy + 4 oz`, with y and z
+        // put in: a term `sa * p[a] + sb * p[b]` has `a < b`, so it is
+        // `sa * px + rest` when `a` is x (`rest = sb * p[b]`, the same products
+        // and sum), and the constant `rest` when it is not.
         let mut cell: Option<isize> = None;
-        let mut terms = [TERMS[0]; 8];
+        let mut with_x = [false; 8];
+        let mut slope = [0.0f64; 8];
+        let mut rest = [0.0f64; 8];
         for (&x, out) in xs.iter().zip(out.iter_mut()) {
             let cx = lattice(x);
             if cell != Some(cx) {
                 cell = Some(cx);
-                for (i, t) in terms.iter_mut().enumerate() {
+                for i in 0..8 {
                     let xb = (cx + (i & 1) as isize) as usize & 0xff;
-                    *t = TERMS[p(p(p(xb) ^ yb[(i >> 1) & 1]) ^ zb[i >> 2]) & 0b1111];
+                    let (a, sa, b, sb) =
+                        TERMS[p(p(p(xb) ^ yb[(i >> 1) & 1]) ^ zb[i >> 2]) & 0b1111];
+                    let d = [0.0, py[(i >> 1) & 1], pz[i >> 2]];
+                    with_x[i] = a == 0;
+                    slope[i] = sa;
+                    rest[i] = if a == 0 {
+                        sb * d[b]
+                    } else {
+                        sa * d[a] + sb * d[b]
+                    };
                 }
             }
             let dx = x - cx as f64;
             let px = [dx, dx - 1.0];
             let g = |i: usize| {
-                let d = [px[i & 1], py[(i >> 1) & 1], pz[i >> 2]];
-                let (a, sa, b, sb) = terms[i];
-                sa * d[a] + sb * d[b]
+                if with_x[i] {
+                    slope[i] * px[i & 1] + rest[i]
+                } else {
+                    rest[i]
+                }
             };
             let (g000, g100, g010, g110) = (g(0), g(1), g(2), g(3));
             let (g001, g101, g011, g111) = (g(4), g(5), g(6), g(7));
