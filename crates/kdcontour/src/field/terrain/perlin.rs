@@ -146,46 +146,52 @@ impl Perlin3 {
         // put in: a term `sa * p[a] + sb * p[b]` has `a < b`, so it is
         // `sa * px + rest` when `a` is x (`rest = sb * p[b]`, the same products
         // and sum), and the constant `rest` when it is not.
-        let mut cell: Option<isize> = None;
-        let mut with_x = [false; 8];
-        let mut slope = [0.0f64; 8];
-        let mut rest = [0.0f64; 8];
-        for (&x, out) in xs.iter().zip(out.iter_mut()) {
-            let cx = lattice(x);
-            if cell != Some(cx) {
-                cell = Some(cx);
-                for i in 0..8 {
-                    let xb = (cx + (i & 1) as isize) as usize & 0xff;
-                    let (a, sa, b, sb) =
-                        TERMS[p(p(p(xb) ^ yb[(i >> 1) & 1]) ^ zb[i >> 2]) & 0b1111];
-                    let d = [0.0, py[(i >> 1) & 1], pz[i >> 2]];
-                    with_x[i] = a == 0;
-                    slope[i] = sa;
-                    rest[i] = if a == 0 {
-                        sb * d[b]
-                    } else {
-                        sa * d[a] + sb * d[b]
-                    };
-                }
+        // Run by run of points in one lattice cell along x (the loop over a run
+        // is the same operations on every point, which the compiler vectorises).
+        let mut first = 0;
+        while first < xs.len() {
+            let cx = lattice(xs[first]);
+            let mut end = first + 1;
+            while end < xs.len() && lattice(xs[end]) == cx {
+                end += 1;
             }
-            let dx = x - cx as f64;
-            let px = [dx, dx - 1.0];
-            let g = |i: usize| {
-                if with_x[i] {
-                    slope[i] * px[i & 1] + rest[i]
+            let mut with_x = [false; 8];
+            let mut slope = [0.0f64; 8];
+            let mut rest = [0.0f64; 8];
+            for i in 0..8 {
+                let xb = (cx + (i & 1) as isize) as usize & 0xff;
+                let (a, sa, b, sb) = TERMS[p(p(p(xb) ^ yb[(i >> 1) & 1]) ^ zb[i >> 2]) & 0b1111];
+                let d = [0.0, py[(i >> 1) & 1], pz[i >> 2]];
+                with_x[i] = a == 0;
+                slope[i] = sa;
+                rest[i] = if a == 0 {
+                    sb * d[b]
                 } else {
-                    rest[i]
-                }
-            };
-            let (g000, g100, g010, g110) = (g(0), g(1), g(2), g(3));
-            let (g001, g101, g011, g111) = (g(4), g(5), g(6), g(7));
-            let cx = quintic(dx);
-            let result = linear(
-                linear(linear(g000, g001, sz), linear(g010, g011, sz), sy),
-                linear(linear(g100, g101, sz), linear(g110, g111, sz), sy),
-                cx,
-            ) * SCALE_FACTOR;
-            *out = result.clamp(-1.0, 1.0);
+                    sa * d[a] + sb * d[b]
+                };
+            }
+            let lattice_x = cx as f64;
+            for (&x, out) in xs[first..end].iter().zip(&mut out[first..end]) {
+                let dx = x - lattice_x;
+                let px = [dx, dx - 1.0];
+                let g = |i: usize| {
+                    if with_x[i] {
+                        slope[i] * px[i & 1] + rest[i]
+                    } else {
+                        rest[i]
+                    }
+                };
+                let (g000, g100, g010, g110) = (g(0), g(1), g(2), g(3));
+                let (g001, g101, g011, g111) = (g(4), g(5), g(6), g(7));
+                let cx = quintic(dx);
+                let result = linear(
+                    linear(linear(g000, g001, sz), linear(g010, g011, sz), sy),
+                    linear(linear(g100, g101, sz), linear(g110, g111, sz), sy),
+                    cx,
+                ) * SCALE_FACTOR;
+                *out = result.clamp(-1.0, 1.0);
+            }
+            first = end;
         }
     }
 
