@@ -192,8 +192,8 @@ pub(crate) const END_T: f32 = 0.01;
 /// How near zero, as a fraction of the difference between an edge's two samples,
 /// the field must be where the root search stops. A thousandth of the edge is a
 /// hundred times finer than the vertex error the default threshold allows (0.1
-/// cells), and the search needs almost one evaluation of the field less per
-/// crossing than at 1e-5 cells (the terrain demo's chunk: 1.5 per crossing
+/// cells), and the search needs about one evaluation of the field less per
+/// crossing than at 1e-5 cells (the terrain demo's chunk: 1.3 per crossing
 /// instead of 2.3).
 pub(crate) const ROOT_TOLERANCE: f32 = 1e-3;
 
