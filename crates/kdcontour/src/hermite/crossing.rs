@@ -189,14 +189,6 @@ pub(crate) const FORCED_CROSSING_T: f32 = 0.1;
 /// of flat faces: the box's adaptive meshes grew 12%).
 pub(crate) const END_T: f32 = 0.01;
 
-/// How near zero, as a fraction of the difference between an edge's two samples,
-/// the field must be where the root search stops. A thousandth of the edge is a
-/// hundred times finer than the vertex error the default threshold allows (0.1
-/// cells), and the search needs about one evaluation of the field less per
-/// crossing than at 1e-5 cells (the terrain demo's chunk: 1.3 per crossing
-/// instead of 2.3).
-pub(crate) const ROOT_TOLERANCE: f32 = 1e-3;
-
 /// The crossing along `p0 + t * dir`, `t` in `[0, 1]`, between samples `v0` and `v1`
 /// of opposite sign: linear interpolation refined by up to `iterations` steps of the
 /// Illinois false-position method on the field itself.
@@ -220,12 +212,9 @@ fn find_root(
 ) -> Result<(f32, bool)> {
     let mut b = Bracket::new(v0, v1);
     let mut t = (v0 / (v0 - v1)).clamp(0.0, 1.0);
-    // Converged when the field is within a thousandth of the samples' difference
-    // of zero (where it is near linear along the edge, the crossing is within a
-    // thousandth of the edge of the root) away from the ends, within 1e-5 cells
-    // (distance units for SDFs) anywhere, or the bracket is 1e-5 cells wide.
+    // Converged when the field is within 1e-5 cells of zero (distance units for
+    // SDFs) or the bracket is 1e-5 cells wide.
     let tol = 1e-5 * grid.cell_size;
-    let converged = tol.max(ROOT_TOLERANCE * (v1 - v0).abs());
     // Whether an evaluation had end 0's sign or end 1's, and whether one was
     // within `tol` of zero (a root for sure).
     let (mut seen0, mut seen1, mut on_root) = (false, false, false);
@@ -239,10 +228,7 @@ fn find_root(
                 cause: field.explain_non_finite(wp),
             });
         }
-        // Near an end the search may be closing on a forced sample's end, where
-        // the field only comes near zero: there only the fine tolerance counts.
-        let inner = t > FORCED_CROSSING_T && t < 1.0 - FORCED_CROSSING_T;
-        if ft.abs() <= tol || (inner && ft.abs() <= converged) {
+        if ft.abs() <= tol {
             on_root = true;
             break;
         }
