@@ -78,6 +78,12 @@ const TERMS: [(usize, f64, usize, f64); 16] = [
     (1, -1.0, 2, -1.0),
 ];
 
+/// The spacing of a row's points (lattice cells) from which [`Perlin3::get_row`]
+/// looks each point's terms up instead of setting up runs of points in one cell:
+/// at half a cell, runs are about two points long (the demo's level-3 chunks
+/// sample their finest octave 1.4 cells apart).
+const SPARSE_STEP: f64 = 0.5;
+
 /// `perlin_3d`'s scale, `2 / sqrt 3`.
 const SCALE_FACTOR: f64 = 1.154_700_538_379_251_5;
 
@@ -134,6 +140,10 @@ impl Perlin3 {
     /// blends and hash bytes) done once for the row and the eight gradient
     /// terms of a lattice cell reused while consecutive `x` stay in it.
     pub(super) fn get_row(&self, xs: &[f64], y: f64, z: f64, out: &mut [f64]) {
+        // Points a cell or more apart make runs of one: look terms up per point.
+        if xs.len() >= 2 && (xs[1] - xs[0]).abs() >= SPARSE_STEP {
+            return self.get_row_sparse(xs, y, z, out);
+        }
         let (cy, cz) = (lattice(y), lattice(z));
         let (dy, dz) = (y - cy as f64, z - cz as f64);
         // `d - 0 as f64` is `d`, bit for bit.
@@ -192,6 +202,49 @@ impl Perlin3 {
                 *out = result.clamp(-1.0, 1.0);
             }
             first = end;
+        }
+    }
+
+    /// [`Perlin3::get_row`] for points about a lattice cell or more apart (a
+    /// coarse chunk's finer octaves): each point looks its cell's terms up,
+    /// as [`Perlin3::get`] does, without setting up a run.
+    fn get_row_sparse(&self, xs: &[f64], y: f64, z: f64, out: &mut [f64]) {
+        let (cy, cz) = (lattice(y), lattice(z));
+        let (dy, dz) = (y - cy as f64, z - cz as f64);
+        // `d - 0 as f64` is `d`, bit for bit.
+        let (py, pz) = ([dy, dy - 1.0], [dz, dz - 1.0]);
+        let (sy, sz) = (quintic(dy), quintic(dz));
+        let yb = [cy as usize & 0xff, (cy + 1) as usize & 0xff];
+        let zb = [cz as usize & 0xff, (cz + 1) as usize & 0xff];
+        let p = |i: usize| self.perm[i & 0xff] as usize;
+        // The terms of the cell `cx`, by corner `ox + 2 oy + 4 oz`.
+        let mut cell: Option<isize> = None;
+        let mut terms = [TERMS[0]; 8];
+        for (&x, out) in xs.iter().zip(out.iter_mut()) {
+            let cx = lattice(x);
+            if cell != Some(cx) {
+                cell = Some(cx);
+                for (i, t) in terms.iter_mut().enumerate() {
+                    let xb = (cx + (i & 1) as isize) as usize & 0xff;
+                    *t = TERMS[p(p(p(xb) ^ yb[(i >> 1) & 1]) ^ zb[i >> 2]) & 0b1111];
+                }
+            }
+            let dx = x - cx as f64;
+            let px = [dx, dx - 1.0];
+            let g = |i: usize| {
+                let d = [px[i & 1], py[(i >> 1) & 1], pz[i >> 2]];
+                let (a, sa, b, sb) = terms[i];
+                sa * d[a] + sb * d[b]
+            };
+            let (g000, g100, g010, g110) = (g(0), g(1), g(2), g(3));
+            let (g001, g101, g011, g111) = (g(4), g(5), g(6), g(7));
+            let cx = quintic(dx);
+            let result = linear(
+                linear(linear(g000, g001, sz), linear(g010, g011, sz), sy),
+                linear(linear(g100, g101, sz), linear(g110, g111, sz), sy),
+                cx,
+            ) * SCALE_FACTOR;
+            *out = result.clamp(-1.0, 1.0);
         }
     }
 
