@@ -89,7 +89,7 @@ pub trait Field: Send + Sync {
 
     /// [`Field::sample_grid`] for the build's sampling stage, which needs exact
     /// values only near the surface: a corner whose value is provably more than
-    /// `far` from zero may hold [`crate::grid::FAR`] with the value's sign instead
+    /// `far` from zero may hold `f32::MAX` with the value's sign instead
     /// (the build evaluates such a corner where it needs the value). By default
     /// [`Field::sample_grid`].
     fn sample_grid_far(

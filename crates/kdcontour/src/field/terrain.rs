@@ -566,8 +566,8 @@ impl Field for Density {
         self.paint.at(p, gradient, self.cave_weight(p))
     }
 
-    /// One evaluation of each noise's value and gradient for both
-    /// ([`Density::gradient_and_cave`]): the material is [`Field::material`]'s.
+    /// One evaluation of each noise's value and gradient for both: the
+    /// material is [`Field::material`]'s.
     fn gradient_and_material(&self, p: Vec3) -> (Vec3, crate::material::MaterialBlend) {
         let (gradient, cave) = self.gradient_and_cave(p);
         (gradient, self.paint.at(p, gradient, cave))
