@@ -233,12 +233,17 @@ impl ChunkBuild {
             slot.get()
         };
         // The field's value, for the rules that average values: a skipped
-        // corner is evaluated as sampling would have.
+        // corner is evaluated as sampling would have, once (the rules read a
+        // corner up to a dozen times; its slot past the grid is free).
         let real = |p: IVec3| {
             let v = raw(p);
             if v.abs() == hermite::FAR {
                 let l = (p - wide.offset).as_uvec3();
-                field.value(wide.corner_pos(l)).copysign(v)
+                let slot = &past[wide.corner_index(l.x, l.y, l.z)];
+                if slot.get().is_nan() {
+                    slot.set(field.value(wide.corner_pos(l)));
+                }
+                slot.get().copysign(v)
             } else {
                 v
             }
