@@ -293,42 +293,55 @@ impl ChunkBuild {
             g.corner_count(),
             0f32,
         )?;
+        // Every corner off the coarse boundaries keeps its sample.
+        values.copy_from_slice(inner);
         for z in 0..n.z {
             for y in 0..n.y {
                 for x in 0..n.x {
                     let p = g.offset + UVec3::new(x, y, z).as_ivec3();
-                    let odd: Vec<usize> = (0..3).filter(|&a| p[a] & 1 == 1).collect();
-                    let i = g.corner_index(x, y, z);
-                    values[i] = match odd[..] {
-                        [a] if on_boundary(p) => mid(p, a),
-                        [a, b] if on_boundary(p) => {
-                            let (ea, eb) = (IVec3::AXES[a], IVec3::AXES[b]);
-                            // Corners (00, 10, 11, 01 in a, b) and the midpoints
-                            // between them in the same cyclic order.
-                            let corner = [
-                                real(p - ea - eb),
-                                real(p + ea - eb),
-                                real(p + ea + eb),
-                                real(p - ea + eb),
-                            ];
-                            let mids = [
-                                mid(p - eb, a),
-                                mid(p + ea, b),
-                                mid(p + eb, a),
-                                mid(p - ea, b),
-                            ];
-                            let inside = center_inside(corner, mids);
-                            let v = real(p);
-                            let around: Vec<f32> = corner.iter().chain(&mids).copied().collect();
-                            if (v < 0.0) == inside {
-                                v
-                            } else if !inside {
-                                mean(&around).max(0.0)
-                            } else {
-                                mean(&around).min(TINY)
-                            }
+                    // The axes along which `p` is odd (a coarse edge's midpoint
+                    // has one, a coarse face's center two).
+                    let (mut odd, mut count) = ([0usize; 3], 0);
+                    for a in 0..3 {
+                        if p[a] & 1 == 1 {
+                            odd[count] = a;
+                            count += 1;
                         }
-                        _ => raw(p),
+                    }
+                    if !(count == 1 || count == 2) || !on_boundary(p) {
+                        continue;
+                    }
+                    let i = g.corner_index(x, y, z);
+                    values[i] = if count == 1 {
+                        mid(p, odd[0])
+                    } else {
+                        let (a, b) = (odd[0], odd[1]);
+                        let (ea, eb) = (IVec3::AXES[a], IVec3::AXES[b]);
+                        // Corners (00, 10, 11, 01 in a, b) and the midpoints
+                        // between them in the same cyclic order.
+                        let corner = [
+                            real(p - ea - eb),
+                            real(p + ea - eb),
+                            real(p + ea + eb),
+                            real(p - ea + eb),
+                        ];
+                        let mids = [
+                            mid(p - eb, a),
+                            mid(p + ea, b),
+                            mid(p + eb, a),
+                            mid(p - ea, b),
+                        ];
+                        let inside = center_inside(corner, mids);
+                        let v = real(p);
+                        let around: [f32; 8] =
+                            std::array::from_fn(|k| if k < 4 { corner[k] } else { mids[k - 4] });
+                        if (v < 0.0) == inside {
+                            v
+                        } else if !inside {
+                            mean(&around).max(0.0)
+                        } else {
+                            mean(&around).min(TINY)
+                        }
                     };
                 }
             }
