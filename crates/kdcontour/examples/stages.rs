@@ -57,7 +57,13 @@ fn main() {
             offset: grid.offset - glam::IVec3::ONE,
             ..grid
         };
-        (halo, Cells::Core(res))
+        (
+            halo,
+            Cells::Core {
+                res,
+                finer_faces: 0,
+            },
+        )
     } else {
         (grid, Cells::All)
     };

@@ -32,7 +32,13 @@ pub enum Cells {
     /// The `res`^3 cells inside a one-cell halo (a chunk: the halo's cells decide
     /// how its boundary cells resolve ambiguous faces, but belong to its
     /// neighbours).
-    Core(u32),
+    Core {
+        /// Cells per side.
+        res: u32,
+        /// The chunk's faces toward finer chunks (bit `2 * axis + side`, side 1
+        /// the high face): every leaf touching one is a cell.
+        finer_faces: u8,
+    },
 }
 
 /// Stage 1: samples `field` on `grid` and computes the Hermite data (closing
@@ -46,17 +52,17 @@ pub fn hermite(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<He
 /// refused, and painted with the field's materials (when `settings.materials` and
 /// the field has them).
 pub fn tree(h: &Hermite, field: &dyn Field, settings: &Settings, cells: Cells) -> KdTree {
-    let (lo, hi) = match cells {
+    let (core, finer_faces) = match cells {
         Cells::All => {
             let g = h.grid.cells;
-            ([0, 0, 0], [g.x as u16, g.y as u16, g.z as u16])
+            (([0, 0, 0], [g.x as u16, g.y as u16, g.z as u16]), 0)
         }
-        Cells::Core(res) => {
+        Cells::Core { res, finer_faces } => {
             let r = res as u16;
-            ([1, 1, 1], [r + 1, r + 1, r + 1])
+            (([1, 1, 1], [r + 1, r + 1, r + 1]), finer_faces)
         }
     };
-    let mut tree = build_in(h, field, settings.partition, lo, hi);
+    let mut tree = build_in(h, field, settings.partition, core, finer_faces);
     crate::kdtree::paint_tree(&mut tree, field, settings);
     tree
 }

@@ -5,7 +5,7 @@
 //! neighbours' finest cells only: their defects are printed.
 
 use glam::Vec3;
-use kdcontour::world::{Layout, World};
+use kdcontour::world::{Layout, Seam, World};
 use kdcontour::{
     scenes, validate_with, Checks, Field, Grid, IndexedMesh, KdTree, MeshReport, Settings,
 };
@@ -191,6 +191,65 @@ fn level_chunk_interiors_at_random_thresholds_do_not_fold() {
                 &format!("{name} seed {seed} round {round}"),
             );
         }
+    }
+}
+
+/// A chunk's leaves on its faces toward finer chunks are cells at every
+/// threshold (their seams are contoured against cells the chunk's fold guard
+/// never sees; merged leaves there folded four in five of the level seams'
+/// flipped faces), so its threshold leaves those seams exactly as they are,
+/// while it still changes the chunk's inside.
+#[test]
+fn a_coarse_chunks_threshold_leaves_its_seams_with_finer_chunks_alone() {
+    let (region, res) = (8, 8u32);
+    let cell = 2.0 / (region as u32 * res) as f32;
+    let (mut a, mut b) = (IndexedMesh::default(), IndexedMesh::default());
+    for (name, seed) in [("sphere", 3), ("disk_pole", 7), ("box", 5), ("csg_mix", 3)] {
+        let scene = scenes::scene(name).unwrap();
+        let layout =
+            Layout::random(glam::IVec3::ZERO, glam::IVec3::splat(region), 2, 0.3, seed).unwrap();
+        let mut w = World::new(
+            Vec3::splat(-1.0),
+            cell,
+            res,
+            layout,
+            -1.0,
+            Settings::default(),
+        )
+        .unwrap();
+        w.build_all(&*scene.field).unwrap();
+        let (mut seams, mut merged) = (0, 0);
+        for k in w.chunks() {
+            let finer: Vec<_> = w
+                .seams_of(&k)
+                .into_iter()
+                .filter(|s| match *s {
+                    Seam::Face { low, high, .. } => low.level.min(high.level) < k.level,
+                    Seam::Edge { .. } => false,
+                })
+                .collect();
+            if finer.is_empty() {
+                continue;
+            }
+            w.extract_interior(&k, &mut a);
+            w.set_threshold(&k, 1.0);
+            w.extract_interior(&k, &mut b);
+            merged += (a.triangle_count() > b.triangle_count()) as usize;
+            for s in &finer {
+                w.set_threshold(&k, -1.0);
+                w.extract_seam(s, &mut a);
+                w.set_threshold(&k, 1.0);
+                w.extract_seam(s, &mut b);
+                assert_eq!(a, b, "{name}: {s:?}");
+                seams += (a.triangle_count() > 0) as usize;
+            }
+            w.set_threshold(&k, -1.0);
+        }
+        println!("{name}: {seams} level face seams with a surface, {merged} coarser chunks merged");
+        assert!(
+            seams > 0 && merged > 0,
+            "{name}: {seams} seams, {merged} merged"
+        );
     }
 }
 

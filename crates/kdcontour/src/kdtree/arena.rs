@@ -81,6 +81,9 @@ pub(super) struct Ctx<'a> {
     /// Whether a cell of the tree has a bit in `open` (a chunk's core never does:
     /// its halo holds the grid's faces).
     pub(super) any_open: bool,
+    /// Per active cell, in a chunk with faces toward finer chunks
+    /// ([`crate::pipeline::Cells::Core`]): those it touches; empty otherwise.
+    pub(super) finer: Vec<u8>,
     /// Per active cell, when materials are tracked: what it is to a material
     /// border (module `borders`); empty otherwise.
     pub(super) kinds: Vec<super::borders::Kinds>,

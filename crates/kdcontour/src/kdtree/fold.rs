@@ -31,8 +31,10 @@
 //!
 //! A chunk's seams are contoured against its neighbours' trees, whose cuts the
 //! build cannot know: on an edge with cells outside the tree (in the chunk's halo)
-//! those cells stand at their finest, their Dual Marching Cubes vertices. A seam
-//! polygon against a coarser neighbour can still fold.
+//! those cells stand at their finest, their Dual Marching Cubes vertices. Across
+//! a face toward finer chunks they are not even that (the cells there are
+//! smaller), so the chunk keeps cells along such a face (`build::finer_cells`);
+//! a seam polygon between cells of two levels can still fold.
 
 use super::{KdNode, KdTree, CELL, NONE};
 use crate::cell::{edge_index, CellTables, NO_COMP};

@@ -12,19 +12,24 @@ use glam::Vec3;
 impl World {
     /// Everything needed to build chunk `k` elsewhere (a task, another thread).
     pub fn chunk_build(&self, k: &ChunkKey) -> ChunkBuild {
+        let neighbourhood = self
+            .neighbourhoods
+            .get(k)
+            .cloned()
+            .unwrap_or_else(|| Neighbourhood::of(&self.layout, k));
+        let slot = self.slots.get(k);
         ChunkBuild {
             key: *k,
             grid: self.chunk_grid(k),
             res: self.chunk_res,
-            neighbourhood: self
-                .neighbourhoods
-                .get(k)
-                .cloned()
-                .unwrap_or_else(|| Neighbourhood::of(&self.layout, k)),
             settings: self.settings.clone(),
-            kept: self.slots.get(k).and_then(|s| s.samples.clone()),
-            kept_crossings: self.slots.get(k).and_then(|s| s.crossings.clone()),
-            kept_tree: self.slots.get(k).and_then(|s| s.tree.clone()),
+            kept: slot.and_then(|s| s.samples.clone()),
+            kept_crossings: slot.and_then(|s| s.crossings.clone()),
+            // Faces toward finer chunks shape the tree (`Cells::Core`).
+            kept_tree: slot
+                .filter(|s| s.built_for.finer_faces == neighbourhood.finer_faces)
+                .and_then(|s| s.tree.clone()),
+            neighbourhood,
             keep: self.keep_samples,
         }
     }

@@ -20,6 +20,8 @@ use std::sync::Arc;
 pub struct Neighbourhood {
     /// Per face (`2 * axis + side`): the chunks across are at another level.
     pub level_faces: [bool; 6],
+    /// Per face: the chunks across are finer (a subset of `level_faces`).
+    pub finer_faces: [bool; 6],
     /// The chunks one level coarser that touch it (face, edge or corner).
     pub coarser: Vec<ChunkKey>,
 }
@@ -29,8 +31,15 @@ impl Neighbourhood {
     pub fn of(layout: &Layout, key: &ChunkKey) -> Self {
         Neighbourhood {
             level_faces: layout.level_faces(key),
+            finer_faces: layout.finer_faces(key),
             coarser: layout.coarser_touching(key),
         }
+    }
+
+    /// [`Neighbourhood::finer_faces`] as bits (`1 << face`), as
+    /// [`Cells::Core`] takes them.
+    pub fn finer_face_bits(&self) -> u8 {
+        (0..6).fold(0, |acc, f| acc | (self.finer_faces[f] as u8) << f)
     }
 }
 
@@ -58,7 +67,8 @@ pub struct ChunkBuild {
     /// takes its crossing from here instead of searching the field
     /// ([`KeptCrossings`]).
     pub kept_crossings: Option<Arc<KeptCrossings>>,
-    /// The tree that earlier build made: when the level rules leave every
+    /// The tree that earlier build made, for the same faces toward finer
+    /// chunks (they shape the tree: [`Cells::Core`]): when the level rules leave every
     /// corner's sign and every crossing edge's samples as they were
     /// ([`KeptCrossings::unchanged`]), the build is this tree again.
     pub kept_tree: Option<Arc<KdTree>>,
@@ -125,7 +135,11 @@ impl ChunkBuild {
                     None,
                 )
             };
-            let tree = pipeline::tree(&h, field, &self.settings, Cells::Core(self.res));
+            let cells = Cells::Core {
+                res: self.res,
+                finer_faces: self.neighbourhood.finer_face_bits(),
+            };
+            let tree = pipeline::tree(&h, field, &self.settings, cells);
             Ok(BuiltChunk {
                 tree: Arc::new(tree),
                 samples: samples.filter(|_| self.keep),

@@ -405,6 +405,22 @@ impl Layout {
         })
     }
 
+    /// For each face of `k` (`2 * axis + side`), whether the chunks across it are
+    /// finer than `k`.
+    pub fn finer_faces(&self, k: &ChunkKey) -> [bool; 6] {
+        if self.max_level == 0 {
+            return [false; 6];
+        }
+        std::array::from_fn(|f| {
+            let (a, s) = (f / 2, f % 2);
+            let mut dir = IVec3::ZERO;
+            dir[a] = if s == 1 { 1 } else { -1 };
+            let n = ChunkKey::new(k.level, k.coord + dir);
+            // Neither a chunk nor inside one: chunks inside it.
+            self.in_region(&n) && self.covering(&n).is_none()
+        })
+    }
+
     /// Checks that the chunks lie in the region on their own level's grid, cover
     /// it exactly once, and that touching chunks differ by at most one level (of
     /// an open layout: that every chunk is at level 0).

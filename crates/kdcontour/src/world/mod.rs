@@ -59,6 +59,13 @@
 //!    seam, coarse or fine, separates its outside corners and joins its inside
 //!    ones: the resolution rule 1 gives the coarse faces.
 //!
+//! And one rule keeps merged leaves out of those seams: **the coarser side keeps
+//! cells.** A chunk's leaves on a face toward finer chunks are cells at every
+//! threshold ([`crate::pipeline::Cells::Core`]): its fold guard sees the cells
+//! across at its own cell size, which the finer chunk's are not, so merged
+//! leaves there folded seam polygons that no guard saw. Its threshold then never
+//! changes those seams.
+//!
 //! The seam walk (`kdtree/contour.rs`) places every chunk on the level-0
 //! lattice with its own shift: a coarse node's box is its cells times `2^level`. It
 //! reads a seam line's signs from the finest tree around it, steps along it by that

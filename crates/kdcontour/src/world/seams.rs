@@ -338,6 +338,13 @@ impl World {
         }
     }
 
+    /// Contours one seam into `out` (cleared), each chunk at its own threshold
+    /// and level; empty when one of its chunks is not built.
+    pub fn extract_seam(&self, seam: &Seam, out: &mut IndexedMesh) {
+        out.reset();
+        self.contour_seams(&[], &[*seam], out);
+    }
+
     /// The whole world as one welded mesh: every built chunk's interior and every
     /// seam between built chunks, vertices shared, so it can be checked for
     /// watertightness as a whole.
