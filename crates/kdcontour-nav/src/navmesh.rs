@@ -300,10 +300,14 @@ impl NavMesh {
 
     /// The corners with points in between (a cell height's worth of floor
     /// apart at most: every `FLOOR_STEP`), each at the height of the floor
-    /// under it (the corridor's polygon there).
+    /// under it (the corridor's polygon there, else another polygon of the
+    /// corridor's tiles, else the nearest corridor polygon's floor extended).
     fn on_floor(&self, corners: &[Vec3], corridor: &[Node]) -> Vec<Vec3> {
         let mut out = vec![corners[0]];
         let mut at = 0; // the corridor polygon last found, searched from here
+        let mut tiles: Vec<ChunkKey> = corridor.iter().map(|(k, _)| *k).collect();
+        tiles.sort_unstable_by_key(|k| k.order());
+        tiles.dedup();
         for w in corners.windows(2) {
             let steps = (w[0].distance(w[1]) / FLOOR_STEP).ceil().max(1.0) as usize;
             for i in 1..=steps {
@@ -314,6 +318,23 @@ impl NavMesh {
                     if let Some(h) = self.tiles[&k].tile.height_in(poly, p.x, p.z) {
                         (p.y, at, found) = (h, j, true);
                         break;
+                    }
+                }
+                if !found {
+                    // Off the corridor's polygons (a string-pulled line between
+                    // linked tiles cuts across their outlines): the floor of
+                    // another polygon of the corridor's tiles under it, the
+                    // one nearest the line's height.
+                    let under = tiles
+                        .iter()
+                        .flat_map(|k| {
+                            let t = &self.tiles[k].tile;
+                            (0..t.polys.len() as u32).filter_map(|q| t.height_in(q, p.x, p.z))
+                        })
+                        .min_by(|a, b| (a - p.y).abs().total_cmp(&(b - p.y).abs()));
+                    if let Some(h) = under {
+                        p.y = h;
+                        found = true;
                     }
                 }
                 if !found {
