@@ -392,22 +392,25 @@ impl Layout {
     /// For each face of `k` (`2 * axis + side`), whether the chunks across it are
     /// at another level than `k` (finer or coarser).
     pub fn level_faces(&self, k: &ChunkKey) -> [bool; 6] {
-        if self.max_level == 0 {
-            // One level (an open layout may have holes: no neighbour is no level).
-            return [false; 6];
-        }
-        std::array::from_fn(|f| {
-            let (a, s) = (f / 2, f % 2);
-            let mut dir = IVec3::ZERO;
-            dir[a] = if s == 1 { 1 } else { -1 };
-            let n = ChunkKey::new(k.level, k.coord + dir);
-            self.in_region(&n) && self.covering(&n) != Some(n)
-        })
+        self.faces_where(k, |n, covering| covering != Some(*n))
     }
 
     /// For each face of `k` (`2 * axis + side`), whether the chunks across it are
     /// finer than `k`.
     pub fn finer_faces(&self, k: &ChunkKey) -> [bool; 6] {
+        // Neither a chunk nor inside one: chunks inside it.
+        self.faces_where(k, |_, covering| covering.is_none())
+    }
+
+    /// For each face of `k`: whether `test` holds for the same-level key `n`
+    /// across it (in the region) and the chunk that is or holds `n`, if any.
+    /// All false in a one-level layout (an open one may have holes: no
+    /// neighbour is no level).
+    fn faces_where(
+        &self,
+        k: &ChunkKey,
+        test: impl Fn(&ChunkKey, Option<ChunkKey>) -> bool,
+    ) -> [bool; 6] {
         if self.max_level == 0 {
             return [false; 6];
         }
@@ -416,8 +419,7 @@ impl Layout {
             let mut dir = IVec3::ZERO;
             dir[a] = if s == 1 { 1 } else { -1 };
             let n = ChunkKey::new(k.level, k.coord + dir);
-            // Neither a chunk nor inside one: chunks inside it.
-            self.in_region(&n) && self.covering(&n).is_none()
+            self.in_region(&n) && test(&n, self.covering(&n))
         })
     }
 
