@@ -5,14 +5,15 @@
 //! `[-1, 1]^3` (128 cells at level 0, 32 at level 2), laid out at levels 0 to 2
 //! at random (two seeds) and in rings around a camera in a corner, every chunk
 //! at each threshold in turn and then at random ones. Their flipped faces are
-//! split into those of the seams ([`World::extract_seams`]) and those inside
+//! split into those of the seams ([`World::extract_seam`]; in the totals, by
+//! kind: faces between levels, faces within one level, chunk edges) and those inside
 //! the chunks.
 //!
 //! `cargo run --release -p kdcontour --example defects -- [scenes,..] [res,..]`
 //! (default: every scene at 32 and 64; thresholds -1, 0.001, 0.01, 0.1, 1).
 
 use glam::{IVec3, Vec3};
-use kdcontour::world::{Layout, World};
+use kdcontour::world::{Layout, Seam, World};
 use kdcontour::{scenes, validate_with, Checks, Field, Grid, IndexedMesh, KdTree, Settings};
 use std::time::Instant;
 
@@ -105,6 +106,13 @@ fn level_worlds(names: &[String]) {
     println!("\nlevel worlds: {REGION}^3 level-0 chunks of {RES} cells, levels 0 to 2");
     println!("scene        layout   e       tris  zero flip (seams inside) cross ovlp");
     let mut totals = [0usize; 6];
+    // Seam flips by kind: faces between levels, faces within one, chunk edges.
+    let mut by_kind = [0usize; 3];
+    let kind = |s: &Seam| match *s {
+        Seam::Face { low, high, .. } if low.level != high.level => 0,
+        Seam::Face { .. } => 1,
+        Seam::Edge { .. } => 2,
+    };
     for name in names {
         let scene = scenes::scene(name).unwrap_or_else(|e| panic!("{e}"));
         let layouts = [
@@ -151,8 +159,12 @@ fn level_worlds(names: &[String]) {
                 let (mut seams, mut inside) = (0, 0);
                 let mut one = IndexedMesh::default();
                 for k in w.chunks() {
-                    w.extract_seams(&k, &mut one);
-                    seams += faces(&one, &*scene.field, cell).0;
+                    for s in w.owned_seams(&k) {
+                        w.extract_seam(&s, &mut one);
+                        let flipped = faces(&one, &*scene.field, cell).0;
+                        seams += flipped;
+                        by_kind[kind(&s)] += flipped;
+                    }
                     w.extract_interior(&k, &mut one);
                     inside += faces(&one, &*scene.field, cell).0;
                 }
@@ -186,5 +198,9 @@ fn level_worlds(names: &[String]) {
         "level worlds total: zero-area {}, flipped {} ({} in seams, {} inside chunks), \
          crossing triangles {}, overlapping triangles {}",
         totals[0], totals[1], totals[2], totals[3], totals[4], totals[5]
+    );
+    println!(
+        "seams' flipped faces: {} on faces between levels, {} on faces within one, {} on chunk edges",
+        by_kind[0], by_kind[1], by_kind[2]
     );
 }
