@@ -151,26 +151,34 @@ fn chunk_interiors_at_random_thresholds_do_not_fold() {
     }
 }
 
+/// A built level world over `[-1, 1]^3`: 8^3 level-0 chunks of 8 cells, levels
+/// 0 to 2 laid out at random by `seed`, every chunk at `threshold`; and its
+/// level-0 cell size.
+fn random_level_world(field: &dyn Field, seed: u64, threshold: f32) -> (World, f32) {
+    let (region, res) = (8, 8u32);
+    let cell = 2.0 / (region as u32 * res) as f32;
+    let layout =
+        Layout::random(glam::IVec3::ZERO, glam::IVec3::splat(region), 2, 0.3, seed).unwrap();
+    let mut w = World::new(
+        Vec3::splat(-1.0),
+        cell,
+        res,
+        layout,
+        threshold,
+        Settings::default(),
+    )
+    .unwrap();
+    w.build_all(field).unwrap();
+    (w, cell)
+}
+
 #[test]
 fn level_chunk_interiors_at_random_thresholds_do_not_fold() {
     let mut rng = Lcg(29);
     let mut one = IndexedMesh::default();
-    let (region, res) = (8, 8u32);
-    let cell = 2.0 / (region as u32 * res) as f32;
     for (name, seed) in [("sphere", 3), ("torus", 5), ("disk_pole", 7)] {
         let scene = scenes::scene(name).unwrap();
-        let layout =
-            Layout::random(glam::IVec3::ZERO, glam::IVec3::splat(region), 2, 0.3, seed).unwrap();
-        let mut w = World::new(
-            Vec3::splat(-1.0),
-            cell,
-            res,
-            layout,
-            0.01,
-            Settings::default(),
-        )
-        .unwrap();
-        w.build_all(&*scene.field).unwrap();
+        let (mut w, cell) = random_level_world(&*scene.field, seed, 0.01);
         for round in 0..2 {
             for k in w.chunks() {
                 w.set_threshold(&k, THRESHOLDS[rng.next() % THRESHOLDS.len()]);
@@ -201,23 +209,10 @@ fn level_chunk_interiors_at_random_thresholds_do_not_fold() {
 /// while it still changes the chunk's inside.
 #[test]
 fn a_coarse_chunks_threshold_leaves_its_seams_with_finer_chunks_alone() {
-    let (region, res) = (8, 8u32);
-    let cell = 2.0 / (region as u32 * res) as f32;
     let (mut a, mut b) = (IndexedMesh::default(), IndexedMesh::default());
     for (name, seed) in [("sphere", 3), ("disk_pole", 7), ("box", 5), ("csg_mix", 3)] {
         let scene = scenes::scene(name).unwrap();
-        let layout =
-            Layout::random(glam::IVec3::ZERO, glam::IVec3::splat(region), 2, 0.3, seed).unwrap();
-        let mut w = World::new(
-            Vec3::splat(-1.0),
-            cell,
-            res,
-            layout,
-            -1.0,
-            Settings::default(),
-        )
-        .unwrap();
-        w.build_all(&*scene.field).unwrap();
+        let (mut w, _) = random_level_world(&*scene.field, seed, -1.0);
         let (mut seams, mut merged) = (0, 0);
         for k in w.chunks() {
             let finer: Vec<_> = w
