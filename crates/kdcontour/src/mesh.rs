@@ -260,7 +260,8 @@ impl QuadSplit {
         let mut faces = [false; 4];
         for (k, [a, b, c]) in Self::TRIS.into_iter().enumerate() {
             cross[k] = (q[b] - q[a]).cross(q[c] - q[a]);
-            faces[k] = normal_faces(cross[k], [n[a], n[b], n[c]], facing);
+            faces[k] = normal_faces(cross[k], [n[a], n[b], n[c]], facing)
+                && !degenerate([q[a], q[b], q[c]], cross[k]);
         }
         QuadSplit { cross, faces }
     }
@@ -290,10 +291,27 @@ impl QuadSplit {
 /// the dual polygon it comes from must: its normal has a positive component along
 /// `facing` (its grid edge, from the inside corner to the outside one) and does not
 /// point against the sum of its vertices' normals (the field's gradients at their
-/// crossings), when that sum is not zero. A zero-area triangle faces no way.
+/// crossings), when that sum is not zero. A triangle whose vertices are in a row
+/// (to the rounding of their coordinates) faces no way.
 pub fn triangle_faces(p: [Vec3; 3], n: [Vec3; 3], facing: Vec3) -> bool {
     let p = p.map(|x| x.as_dvec3());
-    normal_faces((p[1] - p[0]).cross(p[2] - p[0]), n, facing)
+    let cross = (p[1] - p[0]).cross(p[2] - p[0]);
+    normal_faces(cross, n, facing) && !degenerate(p, cross)
+}
+
+/// The sine of a triangle's angles below which it is a line: three vertices
+/// in a row (as leaves' vertices on an axis-aligned plane can be, at their
+/// boxes' centers) give a triangle of no area, up to the rounding of their
+/// coordinates, which faces no way.
+const DEGENERATE_SIN: f64 = 1e-5;
+
+/// Whether the triangle `p` (normal `cross`, unnormalised) is a line or a
+/// point: its area is below [`DEGENERATE_SIN`] of its longest edge squared.
+fn degenerate(p: [DVec3; 3], cross: DVec3) -> bool {
+    let longest = (0..3)
+        .map(|i| p[i].distance_squared(p[(i + 1) % 3]))
+        .fold(0.0, f64::max);
+    cross.length_squared() <= (DEGENERATE_SIN * longest).powi(2)
 }
 
 /// [`triangle_faces`] of a triangle whose (unnormalised) normal is `cross`.
@@ -304,6 +322,26 @@ fn normal_faces(cross: DVec3, n: [Vec3; 3], facing: Vec3) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_quad_with_three_vertices_in_a_row_is_split_the_other_way() {
+        // Leaves' vertices on the plane x = 118.4 of a 128-cell grid over
+        // [-1, 1]^3, three of them in a row up to f32 rounding: the shorter
+        // diagonal would give a triangle of no area.
+        let p = [
+            [118.4, 23.500008, 54.500023],
+            [118.4, 24.500008, 55.500008],
+            [118.4, 26.00003, 57.000015],
+            [118.4, 20.000061, 60.00006],
+        ]
+        .map(|c| Vec3::from_array(c) / 64.0 - Vec3::ONE);
+        let [a, b] = quad_split(p, [Vec3::X; 4], Vec3::X);
+        assert_eq!([a, b], [[0, 1, 3], [1, 2, 3]]);
+        for t in [a, b] {
+            let q = t.map(|i| p[i]);
+            assert!((q[1] - q[0]).cross(q[2] - q[0]).length() > 1e-4);
+        }
+    }
 
     #[test]
     fn ply_header_and_size() {
