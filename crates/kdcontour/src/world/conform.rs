@@ -345,8 +345,8 @@ impl ChunkBuild {
                             mid(p + eb, a),
                             mid(p - ea, b),
                         ];
-                        let inside = center_inside(corner, mids);
                         let v = real(p);
+                        let inside = center_inside(corner, mids, v < 0.0);
                         let around: [f32; 8] =
                             std::array::from_fn(|k| if k < 4 { corner[k] } else { mids[k - 4] });
                         if (v < 0.0) == inside {
@@ -396,17 +396,30 @@ impl ChunkBuild {
 }
 
 /// Whether a coarse face's center is inside, from its corners and edge midpoints
-/// (both in cyclic order, midpoint `i` between corners `i` and `i + 1`): inside
-/// on an ambiguous face (its inside corners join through the center, as the
-/// coarse side resolves it); otherwise the sign that leaves no fine quarter of
-/// the face ambiguous and joins the center to a midpoint: the midpoints' sign
-/// when a corner's two midpoints both differ from it, else inside when any
-/// midpoint is.
-fn center_inside(corner: [f32; 4], mids: [f32; 4]) -> bool {
+/// (both in cyclic order, midpoint `i` between corners `i` and `i + 1`) and the
+/// field's sign there (`field`): inside on an ambiguous face (its inside
+/// corners join through the center, as the coarse side resolves it);
+/// otherwise the field's sign when it leaves no fine quarter of the face
+/// ambiguous and joins the center to a midpoint (the fine contour then runs
+/// between the same coarse edges as the coarse one, with no loop around the
+/// center), else the sign that does: the midpoints' sign when a corner's two
+/// midpoints both differ from it, else inside when any midpoint is.
+fn center_inside(corner: [f32; 4], mids: [f32; 4], field: bool) -> bool {
     let c = corner.map(|v| v < 0.0);
     let m = mids.map(|v| v < 0.0);
     if c[0] == c[2] && c[1] == c[3] && c[0] != c[1] {
         return true;
+    }
+    // Fine quarter `i` is (corner i, midpoint i, center, midpoint i - 1).
+    let fits = |center: bool| {
+        m.contains(&center)
+            && (0..4).all(|i| {
+                let (before, after) = (m[(i + 3) % 4], m[i]);
+                !(c[i] == center && before == after && before != center)
+            })
+    };
+    if fits(field) {
+        return field;
     }
     for i in 0..4 {
         let (before, after) = (m[(i + 3) % 4], m[i]);

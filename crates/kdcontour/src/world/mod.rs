@@ -48,8 +48,11 @@
 //!    root, so it is found on the field) and takes its ends' sign when it has
 //!    none: a coarse edge has one fine crossing exactly when it has a crossing. A
 //!    coarse face's center is inside when the face is ambiguous; otherwise it
-//!    takes the sign that leaves no fine quarter of the face ambiguous and joins
-//!    it to a midpoint ([`conform`]). The fine contour on a coarse face then runs
+//!    keeps the field's sign where that leaves no fine quarter of the face
+//!    ambiguous and joins it to a midpoint, and takes a sign that does where
+//!    the field's does not ([`conform`]): a center forced against the field
+//!    pulls the fine contour, and the vertices of the four cells around it,
+//!    off the surface. The fine contour on a coarse face then runs
 //!    between the same coarse edges as the coarse contour: one segment stays one
 //!    curve, and an ambiguous face joins its inside corners through the center.
 //!    Every chunk of the finer level computes the same samples there, so fine
