@@ -69,9 +69,12 @@ pub struct Hermite {
     pub(crate) cell_material: Vec<u16>,
     /// Per active cell (with [`Hermite::cell_material`]): for a cell of one
     /// material with a cell of another in the 3x3x3 block around it, the unit
-    /// direction toward them (across the border); zero elsewhere. A node of the
-    /// tree that holds such a cell may be a leaf only while its vertex keeps
-    /// the cell's distance to the border (`BORDER_SHIFT` in `kdtree/borders.rs`).
+    /// direction toward them (across the border); for a cell a border passes
+    /// through, with pure cells of exactly two materials in that block, the
+    /// unit direction from the one side to the other (across the border too);
+    /// zero elsewhere. A node of the tree that holds such a cell may be a leaf
+    /// only while its vertex keeps the cell's distance to the border
+    /// (`BORDER_SHIFT` in `kdtree/borders.rs`).
     pub(crate) cell_border: Vec<Vec3>,
     /// With [`Boundary::Capped`] and a solid that reaches the grid's faces, the
     /// grid the caps close (this data's grid less its caps); `None`
@@ -310,6 +313,10 @@ fn border_codes(
         .map(|(i, c)| {
             let mine = own[i];
             let (mut block, mut toward) = (mine, Vec3::ZERO);
+            // For a cell a border passes through: the offsets to the pure
+            // cells of the first material seen, less those to the second's
+            // (a third material leaves it without a direction).
+            let (mut sides, mut across, mut third) = ([material::UNSET; 2], Vec3::ZERO, false);
             for d in 0..27u32 {
                 let off = [d % 3, d / 3 % 3, d / 9];
                 let mut at = [0u32; 3];
@@ -328,12 +335,31 @@ fn border_codes(
                 }
                 let theirs = own[j as usize];
                 block = material::combine(block, theirs);
+                if mine == material::MIXED && theirs != material::UNSET && theirs != material::MIXED
+                {
+                    let off = Vec3::new(off[0] as f32, off[1] as f32, off[2] as f32) - 1.0;
+                    if sides[0] == material::UNSET || sides[0] == theirs {
+                        sides[0] = theirs;
+                        across += off;
+                    } else if sides[1] == material::UNSET || sides[1] == theirs {
+                        sides[1] = theirs;
+                        across -= off;
+                    } else {
+                        third = true;
+                    }
+                }
                 if theirs != material::UNSET && theirs != mine {
                     toward += Vec3::new(off[0] as f32, off[1] as f32, off[2] as f32) - 1.0;
                 }
             }
             match mine {
-                material::MIXED => (material::MIXED, Vec3::ZERO),
+                material::MIXED if third || sides[1] == material::UNSET => {
+                    (material::MIXED, Vec3::ZERO)
+                }
+                material::MIXED => (
+                    material::MIXED,
+                    across.try_normalize().unwrap_or(Vec3::ZERO),
+                ),
                 material::UNSET => (block, Vec3::ZERO),
                 _ if block != material::MIXED => (mine, Vec3::ZERO),
                 _ => match toward.try_normalize() {

@@ -4,9 +4,10 @@
 //! With materials tracked ([`Hermite::cell_material`]), a cell is one of three
 //! kinds: a border passes through it (its crossings hold two materials,
 //! [`material::MIXED`]); it is of one material beside such a cell or one of
-//! another material ([`Hermite::cell_border`] gives the direction across); or it
-//! is free. Nodes holding a border never become leaves; nodes beside one only
-//! where the border stays put; free regions merge as any surface does.
+//! another material; or it is free ([`Hermite::cell_border`] gives the direction
+//! across the border for the first two). Nodes on or beside a border become
+//! leaves only where the border stays put (they run along it); free regions
+//! merge as any surface does.
 
 use super::arena::{Arena, Ctx};
 use super::KdNode;
@@ -26,15 +27,17 @@ use glam::Vec3;
 pub(crate) const BORDER_SHIFT: f32 = 0.25;
 
 /// Material borders as features: with materials tracked, the node's material
-/// code is its children's combined. A node that holds a border
-/// ([`material::MIXED`]: cells of two materials, or a cell whose crossings hold
-/// both) enters it into its error, which becomes infinite: it is never a leaf at
-/// any threshold (nor `leaf_ok`). A node of one material that holds cells next to
-/// a border ([`Hermite::cell_border`]) may stand in for them only where the
-/// border stays: the vertex nearest each such cell's vertex is within
-/// [`BORDER_SHIFT`] of it across the border (a node running along the border
-/// keeps it; one reaching away from it would drag the border along), or its
-/// error is infinite too. Cells themselves stay leaves.
+/// code is its children's combined. A node that holds cells on or beside a
+/// border (its code [`material::MIXED`], or cells next to one: see the module
+/// docs) may stand in for them only where the border stays: for each such
+/// cell, the vertex of the node nearest each of the cell's vertices is within
+/// [`BORDER_SHIFT`] of it across the border ([`Hermite::cell_border`]; a node
+/// running along the border keeps it, one reaching away from it would drag the
+/// border along). A cell without a direction across (a border of three
+/// materials, or a cell with no pure crossing) is never stood in for. Otherwise
+/// the node's error is infinite: it is never a leaf at any threshold (nor
+/// `leaf_ok`). A node of two materials with no cell near a border (two sheets
+/// of the surface) is refused likewise. Cells themselves stay leaves.
 pub(super) fn mark(
     ctx: &Ctx,
     arena: &mut Arena,
@@ -53,18 +56,18 @@ pub(super) fn mark(
             material::combine(m, arena.material[c as usize])
         });
     arena.material.push(code);
-    let beside = kinds.has_beside();
-    if code == material::MIXED
-        || (beside && node.clusterable && moves_a_border(ctx, arena, node, ids))
-    {
+    // Cells on or beside a border: the node keeps it or is refused.
+    let near = kinds.near_border() && node.clusterable;
+    if (code == material::MIXED && !near) || (near && moves_a_border(ctx, arena, node, ids)) {
         node.error = f32::INFINITY;
         node.leaf_ok = false;
     }
 }
 
 /// Whether a clustered node's vertices would move a material border: a cell of
-/// `ids` next to one has a patch whose nearest component vertex is more than
-/// [`BORDER_SHIFT`] from the patch's vertex across the border.
+/// `ids` on or next to one has no direction across it, or a patch whose
+/// nearest component vertex is more than [`BORDER_SHIFT`] from the patch's
+/// vertex across the border.
 fn moves_a_border(ctx: &Ctx, arena: &Arena, node: &KdNode, ids: &[u32]) -> bool {
     let h = ctx.h;
     let lo = Vec3::from_array(node.min.map(|v| v as f32));
@@ -77,10 +80,13 @@ fn moves_a_border(ctx: &Ctx, arena: &Arena, node: &KdNode, ids: &[u32]) -> bool 
     }
     let vertices = &vertices[..count];
     ids.iter().any(|&id| {
-        if !ctx.kinds[id as usize].has_beside() {
+        if !ctx.kinds[id as usize].near_border() {
             return false;
         }
         let across = h.cell_border[id as usize];
+        if across == Vec3::ZERO {
+            return true;
+        }
         let c = h.cells[id as usize];
         let patches = ctx.tables.cell(c.config, c.mask).count as usize;
         let base = c.patch_base as usize;
@@ -150,14 +156,14 @@ impl Kinds {
         }
     }
 
-    /// Whether the region holds cells beside a border.
-    pub(super) fn has_beside(&self) -> bool {
-        self.flags & BESIDE != 0
+    /// Whether the region holds cells on or beside a border.
+    fn near_border(&self) -> bool {
+        self.flags & (BESIDE | THROUGH) != 0
     }
 
     /// One kind only, and one material: a region whose cells can all be
-    /// treated alike (cells on a border all stay cells; cells beside one merge
-    /// along it; free cells of one material merge freely).
+    /// treated alike (cells on a border, or beside one, merge along it; free
+    /// cells of one material merge freely).
     fn alike(&self) -> bool {
         self.flags.count_ones() == 1
             && self.beside != material::MIXED

@@ -4,8 +4,8 @@
 //! A field that has materials says so ([`crate::Field::has_materials`]); then every mesh
 //! the core makes from it carries one blend per vertex
 //! ([`crate::IndexedMesh::materials`]), and the tree keeps material borders crisp: a node
-//! whose surface spans a border is never a leaf, and a node beside one is a leaf
-//! only where its vertex leaves the border where it was (see `kdtree/borders.rs` and
+//! on or beside a border is a leaf only where its vertex leaves the border where
+//! it was, running along it (see `kdtree/borders.rs` and
 //! [`Settings::material_borders`](crate::Settings::material_borders)). Fields
 //! without materials give the same meshes as before, with no blends. A mesh to
 //! be drawn can have its vertices split where two materials meet at a crease
