@@ -62,6 +62,7 @@ fn main() {
             Cells::Core {
                 res,
                 finer_faces: 0,
+                coarser_faces: 0,
             },
         )
     } else {

@@ -19,7 +19,7 @@ use crate::error::Result;
 use crate::field::Field;
 use crate::grid::Grid;
 use crate::hermite::Hermite;
-use crate::kdtree::{build_in, BuildStats, KdTree};
+use crate::kdtree::{build_in, BuildStats, Coarser, KdTree};
 use crate::mesh::IndexedMesh;
 use crate::settings::Settings;
 use std::time::Instant;
@@ -38,6 +38,10 @@ pub enum Cells {
         /// The chunk's faces toward finer chunks (bit `2 * axis + side`, side 1
         /// the high face): every leaf touching one is a cell.
         finer_faces: u8,
+        /// The chunk's faces toward coarser chunks (bits as `finer_faces`): the
+        /// fold guard holds the seam polygons across them to the coarse cells,
+        /// sampled from the field.
+        coarser_faces: u8,
     },
 }
 
@@ -52,17 +56,29 @@ pub fn hermite(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<He
 /// refused, and painted with the field's materials (when `settings.materials` and
 /// the field has them).
 pub fn tree(h: &Hermite, field: &dyn Field, settings: &Settings, cells: Cells) -> KdTree {
-    let (core, finer_faces) = match cells {
+    let (core, finer_faces, coarser) = match cells {
         Cells::All => {
             let g = h.grid.cells;
-            (([0, 0, 0], [g.x as u16, g.y as u16, g.z as u16]), 0)
+            (([0, 0, 0], [g.x as u16, g.y as u16, g.z as u16]), 0, None)
         }
-        Cells::Core { res, finer_faces } => {
+        Cells::Core {
+            res,
+            finer_faces,
+            coarser_faces,
+        } => {
             let r = res as u16;
-            (([1, 1, 1], [r + 1, r + 1, r + 1]), finer_faces)
+            let coarser = Coarser::new(h, field, settings, res, coarser_faces);
+            (([1, 1, 1], [r + 1, r + 1, r + 1]), finer_faces, coarser)
         }
     };
-    let mut tree = build_in(h, field, settings.partition, core, finer_faces);
+    let mut tree = build_in(
+        h,
+        field,
+        settings.partition,
+        core,
+        finer_faces,
+        coarser.as_ref(),
+    );
     crate::kdtree::paint_tree(&mut tree, field, settings);
     tree
 }

@@ -248,6 +248,56 @@ fn a_coarse_chunks_threshold_leaves_its_seams_with_finer_chunks_alone() {
     }
 }
 
+/// A finer chunk's fold guard holds the seam polygons across its faces toward
+/// coarser chunks to the coarse cells there (sampled from the field, module
+/// `kdtree::coarser`), so its merged leaves fold none of them: on the faces
+/// between levels, every threshold leaves no more flipped faces than the
+/// cells alone (threshold -1) do. Before, the guard stood the finer chunk's own
+/// halo cells there, and merging added flips (csg_mix, seed 3: none at -1, 2
+/// at 0.01 and at 1).
+#[test]
+fn merges_add_no_flipped_face_to_seams_between_levels() {
+    let mut one = IndexedMesh::default();
+    for (name, seed) in [
+        ("sphere", 3),
+        ("torus", 5),
+        ("disk_pole", 7),
+        ("box", 5),
+        ("thin_plates", 3),
+        ("gyroid", 3),
+        ("csg_mix", 3),
+    ] {
+        let scene = scenes::scene(name).unwrap();
+        let (mut w, cell) = random_level_world(&*scene.field, seed, -1.0);
+        let between: Vec<Seam> = w
+            .chunks()
+            .iter()
+            .flat_map(|k| w.owned_seams(k))
+            .filter(|s| matches!(*s, Seam::Face { low, high, .. } if low.level != high.level))
+            .collect();
+        assert!(!between.is_empty(), "{name}: no face between levels");
+        let mut flipped = Vec::new();
+        for e in THRESHOLDS {
+            for k in w.chunks() {
+                w.set_threshold(&k, e);
+            }
+            let mut n = 0;
+            for s in &between {
+                w.extract_seam(s, &mut one);
+                n += report(&one, &*scene.field, cell)
+                    .flipped_triangles
+                    .unwrap_or(0);
+            }
+            flipped.push(n);
+        }
+        println!("{name} seed {seed}: flipped faces between levels per threshold {flipped:?}");
+        assert!(
+            flipped.iter().all(|&n| n <= flipped[0]),
+            "{name} seed {seed}: flipped faces between levels at {THRESHOLDS:?}: {flipped:?}"
+        );
+    }
+}
+
 #[test]
 fn a_scan_has_no_zero_area_or_overlapping_face() {
     // The Shepp-Logan phantom at 64 voxels and its skull's iso value: thin shells

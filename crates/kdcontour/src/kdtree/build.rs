@@ -10,6 +10,7 @@
 use super::arena::{Arena, Ctx, NO_EDGE};
 use super::borders;
 use super::cluster::cluster;
+use super::coarser::Coarser;
 use super::fold::refuse_folding_leaves;
 use super::split::{empty_cut, kd_split, EMPTY_CUT_CELLS};
 use super::{Comp, KdNode, KdTree, CELL, NONE};
@@ -37,14 +38,16 @@ const PARALLEL_CELLS: usize = 1024;
 /// field the data was sampled from: the fold guard holds the clustered polygons
 /// to it (`kdtree::fold`). On the box's faces in `finer_faces` (bit `2 * axis +
 /// side`: a chunk's faces toward finer chunks) every leaf is a cell
-/// ([`finer_cells`]). The pipeline's tree stage ([`crate::pipeline::tree`]) is
-/// the way in.
+/// ([`finer_cells`]). Across faces toward coarser chunks the fold guard stands
+/// the coarse cells of `coarser` (module `coarser`). The pipeline's tree stage
+/// ([`crate::pipeline::tree`]) is the way in.
 pub(crate) fn build_in(
     h: &Hermite,
     field: &dyn Field,
     partition: Partition,
     (core_min, core_max): ([u16; 3], [u16; 3]),
     finer_faces: u8,
+    coarser: Option<&Coarser>,
 ) -> KdTree {
     let tables = CellTables::get();
     let cell_qef: Vec<Qef> = h
@@ -113,7 +116,7 @@ pub(crate) fn build_in(
         stats: Default::default(),
         materials: Vec::new(),
     };
-    refuse_folding_leaves(&mut tree, h, h.surface(field).field());
+    refuse_folding_leaves(&mut tree, h, h.surface(field).field(), coarser);
     tree
 }
 

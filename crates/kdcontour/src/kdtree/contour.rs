@@ -14,7 +14,7 @@
 //! own cut, so neighbours at different thresholds join without cracks.
 
 mod edges;
-mod levels;
+pub(super) mod levels;
 
 use super::{KdNode, KdTree, NONE};
 use crate::mesh::IndexedMesh;

@@ -33,9 +33,13 @@
 //! build cannot know: on an edge with cells outside the tree (in the chunk's halo)
 //! those cells stand at their finest, their Dual Marching Cubes vertices. Across
 //! a face toward finer chunks they are not even that (the cells there are
-//! smaller), so the chunk keeps cells along such a face (`build::finer_cells`);
-//! a seam polygon between cells of two levels can still fold.
+//! smaller), so the chunk keeps cells along such a face (`build::finer_cells`).
+//! Across a face toward a coarser chunk the coarse cells the seam takes stand
+//! there instead of the halo's ([`Coarser`]). A seam polygon between cells of
+//! two levels can still fold, and so can one between merged leaves of two
+//! chunks of one level.
 
+use super::coarser::Coarser;
 use super::{KdNode, KdTree, CELL, NONE};
 use crate::cell::{edge_index, CellTables, NO_COMP};
 use crate::facing::Facing;
@@ -88,13 +92,18 @@ impl Rung {
 
 /// Clears `leaf_ok` on every clustered node whose polygons would fold at some
 /// threshold (see the module docs). Returns how many nodes it refused.
-pub(super) fn refuse_folding_leaves(tree: &mut KdTree, h: &Hermite, surface: &dyn Field) -> usize {
+pub(super) fn refuse_folding_leaves(
+    tree: &mut KdTree,
+    h: &Hermite,
+    surface: &dyn Field,
+    coarser: Option<&Coarser>,
+) -> usize {
     if tree.root == NONE {
         return 0;
     }
     let test = &Facing::new(surface, &tree.grid);
     let edges = crossing_edges(tree);
-    let h = &Links::new(tree, h);
+    let h = &Links::new(tree, h, coarser);
     // The first pass visits every edge and learns its four cells; later ones only
     // the edges below a node the pass before refused. Refusals are rare: the few
     // edges that refuse share one list.
@@ -223,6 +232,9 @@ const HALO: u32 = 1 << 31;
 /// neighbouring chunk's at its finest) and each node's parent.
 struct Links<'a> {
     h: &'a Hermite,
+    /// The coarse cells across faces toward coarser chunks, which stand in for
+    /// the halo's cells there.
+    coarser: Option<&'a Coarser>,
     /// Per row of the grid along x (`y + cells.y * z`): its first cell in the
     /// data's cells (ordered by linear index), and one past the last row's.
     rows: Vec<u32>,
@@ -242,7 +254,7 @@ struct Links<'a> {
 }
 
 impl<'a> Links<'a> {
-    fn new(tree: &KdTree, h: &'a Hermite) -> Self {
+    fn new(tree: &KdTree, h: &'a Hermite, coarser: Option<&'a Coarser>) -> Self {
         let n = h.grid.cells;
         let row = |c: [u16; 3]| c[1] as usize + n.y as usize * c[2] as usize;
         let mut rows = vec![0u32; n.y as usize * n.z as usize + 1];
@@ -256,6 +268,7 @@ impl<'a> Links<'a> {
         let mut up = vec![NONE; tree.nodes.len()];
         let mut links = Links {
             h,
+            coarser,
             rows,
             node_of: Vec::new(),
             up: Vec::new(),
@@ -432,7 +445,9 @@ fn check_edge(
     let Edge { line, d } = edge;
     let (u, v) = ((d + 1) % 3, (d + 2) % 3);
     let mut cells = [NONE; 4];
-    let mut halo_cells = [None; 4];
+    // Corners outside the tree: a halo cell's, or across a face toward a
+    // coarser chunk the coarse cell's the seam takes.
+    let mut halo_rungs: [Option<Rung>; 4] = [None; 4];
     let mut reach = false;
     for (q, &(qu, qv)) in QUADRANT.iter().enumerate() {
         let mut c = line;
@@ -442,10 +457,21 @@ fn check_edge(
         match links.at(c) {
             NONE => return [NONE; 4],
             x if x & HALO != 0 => {
-                match links.halo((x & !HALO) as usize, edge_index(d, 1 - qu, 1 - qv)) {
-                    Some(found) => halo_cells[q] = Some(found),
-                    None => return [NONE; 4],
-                }
+                let found = links.halo((x & !HALO) as usize, edge_index(d, 1 - qu, 1 - qv));
+                let Some(found) = found else {
+                    return [NONE; 4];
+                };
+                let coarse = links.coarser.and_then(|k| k.corner(c, line, d, q));
+                halo_rungs[q] = Some(match coarse {
+                    Some(k) => Rung {
+                        node: k.id,
+                        local: 0,
+                        error: f32::NEG_INFINITY,
+                        pos: k.pos,
+                        normal: k.normal,
+                    },
+                    None => links.rung(found, q),
+                });
             }
             n => {
                 cells[q] = n;
@@ -467,7 +493,7 @@ fn check_edge(
         links.shared_depth(cells) as i32
     };
     for (q, &(qu, qv)) in QUADRANT.iter().enumerate() {
-        if halo_cells[q].is_some() {
+        if halo_rungs[q].is_some() {
             s.ladders[q].clear();
         } else if !climb(
             tree,
@@ -486,8 +512,8 @@ fn check_edge(
         return [NONE; 4];
     }
     for (q, l) in s.ladders.iter_mut().enumerate() {
-        match halo_cells[q] {
-            Some(found) => l.push(links.rung(found, q)),
+        match halo_rungs[q] {
+            Some(r) => l.push(r),
             None => l.iter_mut().for_each(|r| r.place(tree, links)),
         }
     }

@@ -25,6 +25,7 @@ mod arena;
 mod borders;
 mod build;
 mod cluster;
+mod coarser;
 mod contour;
 mod fold;
 mod paint;
@@ -36,6 +37,7 @@ use glam::Vec3;
 pub(crate) use crate::comp::Comp;
 pub use crate::settings::Partition;
 pub(crate) use build::build_in;
+pub(crate) use coarser::Coarser;
 pub(crate) use contour::{contour, Job, Part};
 pub(crate) use paint::paint_tree;
 

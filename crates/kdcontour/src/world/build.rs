@@ -25,9 +25,13 @@ impl World {
             settings: self.settings.clone(),
             kept: slot.and_then(|s| s.samples.clone()),
             kept_crossings: slot.and_then(|s| s.crossings.clone()),
-            // Faces toward finer chunks shape the tree (`Cells::Core`).
+            // Faces toward finer and coarser chunks shape the tree
+            // (`Cells::Core`).
             kept_tree: slot
-                .filter(|s| s.built_for.finer_faces == neighbourhood.finer_faces)
+                .filter(|s| {
+                    s.built_for.finer_faces == neighbourhood.finer_faces
+                        && s.built_for.level_faces == neighbourhood.level_faces
+                })
                 .and_then(|s| s.tree.clone()),
             neighbourhood,
             keep: self.keep_samples,

@@ -41,6 +41,14 @@ impl Neighbourhood {
     pub fn finer_face_bits(&self) -> u8 {
         (0..6).fold(0, |acc, f| acc | (self.finer_faces[f] as u8) << f)
     }
+
+    /// The faces toward coarser chunks (level faces that are not finer), as
+    /// bits like [`Neighbourhood::finer_face_bits`].
+    pub fn coarser_face_bits(&self) -> u8 {
+        (0..6).fold(0, |acc, f| {
+            acc | ((self.level_faces[f] && !self.finer_faces[f]) as u8) << f
+        })
+    }
 }
 
 /// A chunk build detached from its world (see [`super::World::chunk_build`]), to
@@ -138,6 +146,7 @@ impl ChunkBuild {
             let cells = Cells::Core {
                 res: self.res,
                 finer_faces: self.neighbourhood.finer_face_bits(),
+                coarser_faces: self.neighbourhood.coarser_face_bits(),
             };
             let tree = pipeline::tree(&h, field, &self.settings, cells);
             Ok(BuiltChunk {

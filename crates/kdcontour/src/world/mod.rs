@@ -62,12 +62,16 @@
 //!    seam, coarse or fine, separates its outside corners and joins its inside
 //!    ones: the resolution rule 1 gives the coarse faces.
 //!
-//! And one rule keeps merged leaves out of those seams: **the coarser side keeps
-//! cells.** A chunk's leaves on a face toward finer chunks are cells at every
+//! And two rules keep merged leaves from folding those seams: **the coarser side
+//! keeps cells.** A chunk's leaves on a face toward finer chunks are cells at every
 //! threshold ([`crate::pipeline::Cells::Core`]): its fold guard sees the cells
 //! across at its own cell size, which the finer chunk's are not, so merged
 //! leaves there folded seam polygons that no guard saw. Its threshold then never
-//! changes those seams.
+//! changes those seams. **The finer side's guard sees the coarse cells.** A chunk
+//! samples the coarse cells across each face toward a coarser chunk from the
+//! field (a slab along the face) and its fold guard holds the seam polygons to
+//! them, each fine edge mapped to its coarse cell as the seam walk maps it
+//! (`kdtree/coarser.rs`).
 //!
 //! The seam walk (`kdtree/contour.rs`) places every chunk on the level-0
 //! lattice with its own shift: a coarse node's box is its cells times `2^level`. It

@@ -1,0 +1,184 @@
+//! What a chunk's fold guard stands across its faces toward coarser chunks: the
+//! coarse chunk's cells there ([`Coarser`]).
+//!
+//! A seam polygon across a face between levels joins the finer chunk's leaves to
+//! the coarser chunk's cells (the coarser chunk keeps cells along faces toward
+//! finer chunks, `build::finer_cells`), each fine edge on the face taking the
+//! coarse cell and component the seam walk maps it to
+//! ([`super::contour::levels::seam_edge`]). The fine chunk's halo holds fine
+//! cells there, whose vertices are not the coarse ones, so a guard reading them
+//! passed merged fine leaves whose seam polygons fold against the coarse cells.
+//! The coarse cells are a function of the field alone (a coarser chunk's samples
+//! on its faces toward finer chunks are the field's), so the fine chunk samples
+//! them itself: a slab of coarse cells three thick across each such face (the two
+//! layers of the coarser chunk that touch the face and one on the fine side, so
+//! that the cells' vertices see their neighbours as the coarser chunk's own
+//! build does), with the Hermite data of the coarser chunk's cells.
+//!
+//! A coarse cell's vertex is placed by the same rules in both builds, but that
+//! placement looks at the cells around it ([`crate::hermite`]), and the slab
+//! ends where the coarser chunk does not: near the slab's sides the vertices can
+//! differ. The guard is then as good as the slab, which is what the measurements
+//! in `docs/chunks-and-levels.md` count.
+
+use super::contour::levels::seam_edge;
+use super::NONE;
+use crate::cell::{CellTables, NO_COMP};
+use crate::field::Field;
+use crate::grid::Grid;
+use crate::hermite::{sample, Hermite};
+use crate::settings::{Boundary, Settings};
+use glam::{IVec3, UVec3, Vec3};
+use std::collections::HashMap;
+
+/// The coarse cells across a chunk's faces toward coarser chunks, for its fold
+/// guard.
+pub(crate) struct Coarser {
+    /// The chunk's grid: its level's cells, one of halo all round.
+    grid: Grid,
+    /// Cells per side of the chunk (the grid less its halo).
+    res: u32,
+    /// One slab per face toward a coarser chunk.
+    faces: Vec<Slab>,
+}
+
+/// The coarse cells along one face.
+struct Slab {
+    /// The face (`2 * axis + side`).
+    face: usize,
+    /// The coarse cells' Hermite data (a grid of the coarser level).
+    h: Hermite,
+    /// Active cell index by cell coordinates.
+    index: HashMap<[u16; 3], u32>,
+    /// The first corner id of this slab's patches ([`CoarseCorner::id`]).
+    base: u32,
+}
+
+/// What a coarse cell gives a fine polygon's corner.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CoarseCorner {
+    /// An identity of the coarse patch, distinct from every tree node and from
+    /// the fine halo's corners (two fine quadrants in one coarse patch are one
+    /// corner of the polygon).
+    pub(crate) id: u32,
+    /// Its vertex, in the chunk's grid units.
+    pub(crate) pos: Vec3,
+    /// Its unit normal.
+    pub(crate) normal: Vec3,
+}
+
+/// Corner ids count down from here, below [`NONE`] less the four quadrants'
+/// fine halo ids.
+const FIRST_ID: u32 = NONE - 4;
+
+impl Coarser {
+    /// The coarse cells across the faces `faces` (bits `2 * axis + side`) of the
+    /// chunk whose Hermite data is `h` (a grid of `res`^3 cells and one of halo),
+    /// sampled from `field`. `None` when there are no such faces, when the chunk's
+    /// cells do not sit on the coarser lattice (an odd `res`), or when the slab
+    /// cannot be sampled (the coarser chunk's own build reports why).
+    pub(crate) fn new(
+        h: &Hermite,
+        field: &dyn Field,
+        settings: &Settings,
+        res: u32,
+        faces: u8,
+    ) -> Option<Coarser> {
+        let grid = h.grid;
+        // The core's low corner on the fine lattice must be a coarse corner.
+        let lo = grid.offset + IVec3::ONE;
+        if faces == 0 || res % 2 == 1 || lo.to_array().iter().any(|c| c % 2 != 0) {
+            return None;
+        }
+        let slab_settings = Settings {
+            materials: false,
+            material_borders: false,
+            boundary: Boundary::Open,
+            ..settings.clone()
+        };
+        let mut out = Coarser {
+            grid,
+            res,
+            faces: Vec::new(),
+        };
+        let mut base = 0u32;
+        for face in (0..6).filter(|f| faces & (1 << f) != 0) {
+            let (a, side) = (face / 2, face % 2);
+            // Coarse lattice: the core's cells are half as many, two fine wide.
+            let mut offset = lo / 2 - IVec3::ONE;
+            let mut cells = UVec3::splat(res / 2 + 2);
+            let plane = lo[a] / 2 + if side == 1 { res as i32 / 2 } else { 0 };
+            offset[a] = if side == 1 { plane - 1 } else { plane - 2 };
+            cells[a] = 3;
+            let slab = Grid {
+                origin: grid.origin,
+                cell_size: grid.cell_size * 2.0,
+                cells,
+                offset,
+            };
+            let values = sample(field, &slab, &slab_settings).ok()?;
+            let sh = Hermite::new(field, &slab, &values, &slab_settings).ok()?;
+            let index = sh
+                .cells
+                .iter()
+                .enumerate()
+                .map(|(i, c)| (c.coord, i as u32))
+                .collect();
+            let patches = sh.patch_vertex.len() as u32;
+            out.faces.push(Slab {
+                face,
+                h: sh,
+                index,
+                base,
+            });
+            base += patches;
+        }
+        Some(out)
+    }
+
+    /// The coarse corner of the polygon of the chunk grid's edge along `d` through
+    /// corner `line` in quadrant `q`, whose cell `cell` (chunk grid coordinates)
+    /// is a halo cell across a face toward a coarser chunk (and inside the chunk's
+    /// span along the other two axes). `None` when the cell is elsewhere, or when
+    /// the coarse side has no component for the edge (the fine halo then stands in).
+    pub(crate) fn corner(
+        &self,
+        cell: [u32; 3],
+        line: [u32; 3],
+        d: usize,
+        q: usize,
+    ) -> Option<CoarseCorner> {
+        let last = self.res + 1;
+        let across: Vec<usize> = (0..3)
+            .filter(|&a| cell[a] == 0 || cell[a] == last)
+            .collect();
+        let [a] = across[..] else {
+            return None;
+        };
+        let face = 2 * a + (cell[a] == last) as usize;
+        let slab = self.faces.iter().find(|s| s.face == face)?;
+        let sg = &slab.h.grid;
+        // The edge on the fine lattice, relative to the slab's cell (0, 0, 0).
+        let o = sg.offset * 2;
+        let at = IVec3::from_array(line.map(|c| c as i32)) + self.grid.offset - o;
+        let corners = sg.corners();
+        let (coord, e) = seam_edge(at.to_array(), at[d], d, q, 1, |c| {
+            (0..3).all(|k| c[k] < corners[k]) && slab.h.is_outside(c)
+        })?;
+        if (0..3).any(|k| coord[k] >= sg.cells[k]) {
+            return None;
+        }
+        let i = *slab.index.get(&coord.map(|c| c as u16))? as usize;
+        let c = slab.h.cells[i];
+        let local = CellTables::get().cell(c.config, c.mask).edge_comp[e];
+        if local == NO_COMP {
+            return None;
+        }
+        let p = c.patch_base as usize + local as usize;
+        Some(CoarseCorner {
+            id: FIRST_ID - slab.base - p as u32,
+            pos: self.grid.to_local(sg.to_world(slab.h.patch_vertex[p])),
+            normal: slab.h.patch_normal[p].normalize_or_zero(),
+        })
+    }
+}
