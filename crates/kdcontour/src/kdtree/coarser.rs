@@ -18,11 +18,12 @@
 //! A coarse cell's vertex is placed by the same rules in both builds, but that
 //! placement looks at the cells around it ([`crate::hermite`]), and the slab
 //! ends where the coarser chunk does not: near the slab's sides the vertices can
-//! differ. The guard is then as good as the slab, which is what the measurements
-//! in `docs/chunks-and-levels.md` count.
+//! differ, and so can the samples where the coarser chunk is itself conformed to
+//! a still coarser one. The guard is then as good as the slab, which is what the
+//! measurements in `docs/chunks-and-levels.md` count.
 
 use super::contour::levels::seam_edge;
-use super::NONE;
+use super::{Comp, NONE};
 use crate::cell::{CellTables, NO_COMP};
 use crate::field::Field;
 use crate::grid::Grid;
@@ -149,12 +150,12 @@ impl Coarser {
         q: usize,
     ) -> Option<CoarseCorner> {
         let last = self.res + 1;
-        let across: Vec<usize> = (0..3)
-            .filter(|&a| cell[a] == 0 || cell[a] == last)
-            .collect();
-        let [a] = across[..] else {
+        let halo = |a: usize| cell[a] == 0 || cell[a] == last;
+        // In the halo across exactly one face (not along a chunk edge).
+        let a = (0..3).find(|&a| halo(a))?;
+        if (a + 1..3).any(halo) {
             return None;
-        };
+        }
         let face = 2 * a + (cell[a] == last) as usize;
         let slab = self.faces.iter().find(|s| s.face == face)?;
         let sg = &slab.h.grid;
@@ -175,10 +176,14 @@ impl Coarser {
             return None;
         }
         let p = c.patch_base as usize + local as usize;
+        // Where the coarser chunk's tree stores the vertex, and its normal.
+        let lo = Vec3::from_array(coord.map(|v| v as f32));
+        let hi = lo + Vec3::ONE;
+        let stored = Comp::pack(slab.h.patch_vertex[p], slab.h.patch_normal[p], lo, hi, 0);
         Some(CoarseCorner {
             id: FIRST_ID - slab.base - p as u32,
-            pos: self.grid.to_local(sg.to_world(slab.h.patch_vertex[p])),
-            normal: slab.h.patch_normal[p].normalize_or_zero(),
+            pos: self.grid.to_local(sg.to_world(stored.position(lo, hi))),
+            normal: stored.normal(),
         })
     }
 }
