@@ -67,7 +67,7 @@ pub fn tree(h: &Hermite, field: &dyn Field, settings: &Settings, cells: Cells) -
             coarser_faces,
         } => {
             let r = res as u16;
-            let coarser = Coarser::new(h, field, settings, res, coarser_faces);
+            let coarser = Coarser::new(&h.grid, field, settings, res, coarser_faces);
             (([1, 1, 1], [r + 1, r + 1, r + 1]), finer_faces, coarser)
         }
     };
