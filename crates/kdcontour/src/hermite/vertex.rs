@@ -114,6 +114,10 @@ pub(super) fn cell_vertices(
     let mut around: Option<Around> = None;
     // Per quad, its place in a round's placed triangles (`u32::MAX`: none).
     let mut slot = vec![u32::MAX; quads.len()];
+    // Per quad, its place among a round's quads around moving patches
+    // (`u32::MAX`: none), and a scratch mark for gathering the quads near them.
+    let mut side_of = vec![u32::MAX; quads.len()];
+    let mut mark = vec![u32::MAX; quads.len()];
     // The quads a round tests: every quad at first, then the quads around the
     // patches that stepped. A quad none of whose patches stepped has the
     // vertices it had when it was last tested: it faces as it did then, or it
@@ -158,14 +162,17 @@ pub(super) fn cell_vertices(
         let mut sides: Vec<u32> = moving.iter().flat_map(|&p| around.of(p)).copied().collect();
         sides.sort_unstable();
         sides.dedup();
-        let near: Vec<Vec<u32>> = sides.par_iter().map(|&q| around.near(q, quads)).collect();
+        let near = around.near(&sides, quads, &mut mark);
+        for (i, &q) in sides.iter().enumerate() {
+            side_of[q as usize] = i as u32;
+        }
         // Per quad around a moving patch, how many pairs of its triangles and
         // those of the quads near it cross, with the patches at `vertex`;
         // each patch's count is the sum of its quads'.
         let counts = |which: &[bool], vertex: &[Vec3], slot: &mut [u32]| {
             let mut used: Vec<u32> = (0..sides.len())
                 .filter(|&i| which[i])
-                .flat_map(|i| &near[i])
+                .flat_map(|i| near.of(i))
                 .copied()
                 .collect();
             used.sort_unstable();
@@ -177,20 +184,9 @@ pub(super) fn cell_vertices(
                 .par_iter()
                 .map(|&q| place_quad(&quads[q as usize], vertex, &unit, facing))
                 .collect();
-            let n: Vec<usize> = (0..sides.len())
-                .into_par_iter()
-                .map(|i| {
-                    if !which[i] {
-                        return 0;
-                    }
-                    let q = sides[i];
-                    near[i]
-                        .iter()
-                        .filter(|&&r| r != q)
-                        .map(|&r| pair_crossings(&placed, slot, q, r))
-                        .sum()
-                })
-                .collect();
+            let n = near.pair_counts(&sides, which, &side_of, |q, r| {
+                pair_crossings(&placed, slot, q, r)
+            });
             for &q in &used {
                 slot[q as usize] = u32::MAX;
             }
@@ -236,6 +232,9 @@ pub(super) fn cell_vertices(
                 vertex[p as usize] = place(p as usize, step[p as usize]);
                 stepped.extend_from_slice(around.of(p));
             }
+        }
+        for &q in &sides {
+            side_of[q as usize] = u32::MAX;
         }
         stepped.sort_unstable();
         stepped.dedup();
@@ -304,18 +303,111 @@ impl Around {
         &self.quads[self.start[p as usize] as usize..self.start[p as usize + 1] as usize]
     }
 
-    /// The quads of every patch of the cells of quad `q`'s patches (a cell's
-    /// other patches are other sheets through it), `q` among them.
-    fn near(&self, q: u32, quads: &[DualQuad]) -> Vec<u32> {
-        let mut near: Vec<u32> = Vec::new();
-        for r in quads[q as usize].patches {
-            for c in self.cell_of(r) {
-                near.extend_from_slice(self.of(c));
+    /// Per quad of `sides`, the quads of every patch of the cells of its
+    /// patches (a cell's other patches are other sheets through it), itself
+    /// among them. `mark` is a scratch of one `u32::MAX` per quad, left so.
+    fn near(&self, sides: &[u32], quads: &[DualQuad], mark: &mut [u32]) -> Near {
+        let mut start = Vec::with_capacity(sides.len() + 1);
+        let mut list: Vec<u32> = Vec::with_capacity(sides.len() * 12);
+        start.push(0);
+        for (i, &q) in sides.iter().enumerate() {
+            let from = list.len();
+            for r in quads[q as usize].patches {
+                for c in self.cell_of(r) {
+                    for &x in self.of(c) {
+                        if mark[x as usize] != i as u32 {
+                            mark[x as usize] = i as u32;
+                            list.push(x);
+                        }
+                    }
+                }
+            }
+            for &x in &list[from..] {
+                mark[x as usize] = u32::MAX;
+            }
+            start.push(list.len() as u32);
+        }
+        Near { start, quads: list }
+    }
+}
+
+/// The quads near each quad of a round's `sides` ([`Around::near`]), in one list.
+struct Near {
+    start: Vec<u32>,
+    quads: Vec<u32>,
+}
+
+impl Near {
+    /// The quads near side `i`.
+    fn of(&self, i: usize) -> &[u32] {
+        &self.quads[self.start[i] as usize..self.start[i + 1] as usize]
+    }
+
+    /// Per side `i` with `which[i]`, the sum of `crossings(q, r)` over the
+    /// quads `r` near its quad `q` but `q` itself (0 for the others). The count
+    /// is symmetric, so a pair of two sides both counted is tested once
+    /// (`side_of`: each quad's index in `sides`, or `u32::MAX`).
+    fn pair_counts(
+        &self,
+        sides: &[u32],
+        which: &[bool],
+        side_of: &[u32],
+        crossings: impl Fn(u32, u32) -> usize + Sync,
+    ) -> Vec<usize> {
+        const LATER: u32 = u32::MAX;
+        let both = |q: u32, r: u32| {
+            let j = side_of[r as usize];
+            j != u32::MAX && which[j as usize] && r < q
+        };
+        let mut pairs = vec![0u32; self.quads.len()];
+        let mut parts: Vec<(usize, &mut [u32])> = Vec::with_capacity(sides.len());
+        let mut rest: &mut [u32] = &mut pairs;
+        for i in 0..sides.len() {
+            let (part, tail) = std::mem::take(&mut rest).split_at_mut(self.of(i).len());
+            rest = tail;
+            if which[i] {
+                parts.push((i, part));
             }
         }
-        near.sort_unstable();
-        near.dedup();
-        near
+        parts.into_par_iter().for_each(|(i, part)| {
+            let q = sides[i];
+            for (n, &r) in part.iter_mut().zip(self.of(i)) {
+                *n = if r == q {
+                    0
+                } else if both(q, r) {
+                    LATER
+                } else {
+                    crossings(q, r) as u32
+                };
+            }
+        });
+        // The pairs left for the other side of them: its count, tested there.
+        (0..sides.len())
+            .map(|i| {
+                if !which[i] {
+                    return 0;
+                }
+                let q = sides[i];
+                let from = self.start[i] as usize;
+                self.of(i)
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &r)| {
+                        let n = pairs[from + k];
+                        if n != LATER {
+                            return n as usize;
+                        }
+                        let j = side_of[r as usize] as usize;
+                        let at = self
+                            .of(j)
+                            .iter()
+                            .position(|&x| x == q)
+                            .expect("nearness is mutual");
+                        pairs[self.start[j] as usize + at] as usize
+                    })
+                    .sum()
+            })
+            .collect()
     }
 }
 
