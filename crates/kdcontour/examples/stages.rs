@@ -12,7 +12,9 @@
 //! overhangs and caves, [`scenes::demo_chunk`]), built as a world builds it;
 //! `demo:L` is one of chunk level `L` (cells `2^L` wide) through the surface.
 //! A fifth argument `0` turns crisp material borders off, as the plugin's
-//! terrain demo does: `stages demo 32 50 1 0`.
+//! terrain demo does: `stages demo 32 50 1 0`. A sixth sets the largest
+//! threshold the tree is cut at (`Settings::max_threshold`), as the plugin's
+//! horizon volumes set it: `stages demo:3 32 50 1 0 0.2`.
 
 use kdcontour::pipeline::{self, Cells};
 use kdcontour::{hermite, scenes, Field, Grid, IndexedMesh, Settings};
@@ -69,9 +71,14 @@ fn main() {
         (grid, Cells::All)
     };
     let material_borders = args.next().is_none_or(|s| s != "0");
+    let max_threshold: f32 = args
+        .next()
+        .map(|s| s.parse().expect("max_threshold is a number"))
+        .unwrap_or(f32::INFINITY);
     let settings = Settings {
         threads,
         material_borders,
+        max_threshold,
         ..Default::default()
     };
     let ms = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e3;

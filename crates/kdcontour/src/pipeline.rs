@@ -74,7 +74,7 @@ pub fn tree(h: &Hermite, field: &dyn Field, settings: &Settings, cells: Cells) -
     let mut tree = build_in(
         h,
         field,
-        settings.partition,
+        (settings.partition, settings.max_threshold),
         core,
         finer_faces,
         coarser.as_ref(),

@@ -45,6 +45,14 @@ pub struct Settings {
     /// with materials is meshed as one without (no cost in time or memory, no
     /// border clustering), for apps that do not show materials.
     pub materials: bool,
+    /// The largest threshold a tree is cut at (default: none, `f32::INFINITY`).
+    /// A clustered node whose error is above it is never a leaf, so the fold
+    /// guard checks no merge above it and painting skips those nodes; a tree cut
+    /// at a higher threshold gives the mesh it gives at this one, folded nowhere.
+    /// Below it, every cut is checked as with no limit; only merges that a fold
+    /// above it would have refused stay. A world whose chunks' thresholds stay
+    /// below a known bound (camera levels) builds faster with it.
+    pub max_threshold: f32,
 }
 
 impl Default for Settings {
@@ -57,6 +65,7 @@ impl Default for Settings {
             boundary: Boundary::Open,
             material_borders: true,
             materials: true,
+            max_threshold: f32::INFINITY,
         }
     }
 }
@@ -83,6 +92,12 @@ impl Settings {
                     "{} is more than 64 (8 already reaches f32 precision)",
                     self.root_iterations
                 ),
+            });
+        }
+        if self.max_threshold.is_nan() {
+            return Err(Error::InvalidSetting {
+                name: "max_threshold",
+                reason: "NaN: give a number (f32::INFINITY for no limit)".into(),
             });
         }
         Ok(())

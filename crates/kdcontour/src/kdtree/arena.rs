@@ -71,6 +71,8 @@ pub(super) struct Ctx<'a> {
     pub(super) h: &'a Hermite,
     /// How boxes are split.
     pub(super) partition: Partition,
+    /// Nodes whose error is above it are never leaves ([`crate::Settings::max_threshold`]).
+    pub(super) max_threshold: f32,
     /// Per active cell: the sum of its patches' QEFs.
     pub(super) cell_qef: Vec<Qef>,
     /// The Dual Marching Cubes tables.

@@ -44,7 +44,7 @@ const PARALLEL_CELLS: usize = 1024;
 pub(crate) fn build_in(
     h: &Hermite,
     field: &dyn Field,
-    partition: Partition,
+    (partition, max_threshold): (Partition, f32),
     (core_min, core_max): ([u16; 3], [u16; 3]),
     finer_faces: u8,
     coarser: Option<&Coarser>,
@@ -73,6 +73,7 @@ pub(crate) fn build_in(
     let ctx = Ctx {
         h,
         partition,
+        max_threshold,
         cell_qef,
         tables,
         any_open: ids.iter().any(|&i| open[i as usize] != 0),
@@ -115,6 +116,7 @@ pub(crate) fn build_in(
         outside: h.outside.clone(),
         stats: Default::default(),
         materials: Vec::new(),
+        max_threshold,
     };
     refuse_folding_leaves(&mut tree, h, h.surface(field).field(), coarser);
     tree
@@ -272,6 +274,11 @@ fn build_node(
         stack.truncate(base);
     }
     borders::mark(ctx, arena, &mut node, ids, kinds);
+    // No cut reaches a node above the largest threshold (errors never decrease
+    // going up, so neither does any ancestor's).
+    if node.error > ctx.max_threshold {
+        node.leaf_ok = false;
+    }
     arena.nodes.push(node);
     arena.edges.push(edges);
     ((arena.nodes.len() - 1) as u32, count)

@@ -110,6 +110,8 @@ pub struct KdTree {
     /// pipeline, [`crate::pipeline::tree`]), the default blend for the others;
     /// empty otherwise. Contouring gives each vertex its component's.
     pub(crate) materials: Vec<crate::material::MaterialBlend>,
+    /// The largest threshold it is cut at ([`crate::Settings::max_threshold`]).
+    pub(crate) max_threshold: f32,
 }
 
 impl std::fmt::Debug for KdTree {
@@ -155,6 +157,13 @@ impl KdTree {
     /// Whether the grid holds any surface (the tree has a root).
     pub fn has_surface(&self) -> bool {
         self.root != NONE
+    }
+
+    /// The largest threshold it is cut at: no node whose error is above it is a
+    /// leaf, so a cut at any higher threshold is the cut at this one
+    /// ([`crate::Settings::max_threshold`]).
+    pub fn max_threshold(&self) -> f32 {
+        self.max_threshold
     }
 
     /// How the build went (times and sizes).
