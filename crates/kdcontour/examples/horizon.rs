@@ -41,13 +41,20 @@
 //! batched sampling ([`Field::sample_grid`]) is compared with [`Field::value`]
 //! bit for bit on a few chunks of every level.
 //!
-//! `cargo run --release -p kdcontour --example horizon [-- DISTANCE... [--ring R]]`
-//! (default distances 256 1024 4096 16384, ring 1). A distance stops, and says
+//! Trees are built with the largest threshold the plugin gives a horizon
+//! volume's trees with its default LOD curve ([`Lod::around_limit`], 0.29 at
+//! ring 1; `Settings::max_threshold`), as the plugin builds them.
+//!
+//! `cargo run --release -p kdcontour --example horizon [-- DISTANCE... [--ring R]
+//! [--max-threshold T] [--no-materials]]` (default distances 256 1024 4096 16384,
+//! ring 1; `T` `inf` builds trees for every threshold; `--no-materials` builds
+//! them as for a plain material, as the plugin's frame bench does). A distance
+//! stops, and says
 //! so, when its retained trees pass `MAX_BYTES` or its build passes `MAX_SECS`.
 
 use glam::{IVec3, Vec3};
 use kdcontour::field::terrain::{Density, DensityParams};
-use kdcontour::world::{ChunkKey, Layout, World};
+use kdcontour::world::{ChunkKey, Layout, Lod, World};
 use kdcontour::{hermite, validate, Field, IndexedMesh, MeshReport, Settings};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -59,6 +66,20 @@ const THREADS: usize = 2;
 /// Threshold of every chunk, in squared cells of its own level (the terrain
 /// demo's LOD base).
 const THRESHOLD: f32 = 0.02;
+/// The plugin's default LOD curve (`LodSettings::default`): its horizon volumes'
+/// trees are built for the largest threshold it gives their chunks.
+const PLUGIN_LOD: Lod = Lod {
+    base: 0.001,
+    near: 16.0,
+    growth: 2.0,
+    max: 10.0,
+};
+/// Chunk widths a camera may be from where its layout was made for, in the
+/// plugin's rule for that threshold.
+const MOTION_SLACK: f32 = 2.0;
+/// Whether trees keep the field's materials (`--no-materials`: as a volume with
+/// a plain material builds them, the plugin's frame bench).
+static MATERIALS: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(true);
 /// Camera height above the mean surface (cells).
 const CAMERA_HEIGHT: f32 = 40.0;
 /// Stop a distance whose retained trees pass this many bytes.
@@ -98,7 +119,7 @@ struct View {
 }
 
 /// The world for view distance `distance` (cells), laid out around the camera.
-fn layout(distance: u32, ring: f32) -> Result<World, String> {
+fn layout(distance: u32, ring: f32, max_threshold: f32) -> Result<World, String> {
     if !(distance.is_power_of_two() && distance >= 2 * CHUNK_RES) {
         return Err(format!(
             "view distance {distance} must be a power of two, at least {}",
@@ -112,6 +133,8 @@ fn layout(distance: u32, ring: f32) -> Result<World, String> {
     let origin = Vec3::new(0.0, -(distance as f32) / 2.0, 0.0);
     let settings = Settings {
         threads: THREADS,
+        max_threshold,
+        materials: MATERIALS.load(Ordering::Relaxed),
         ..Default::default()
     };
     let uniform = Layout::uniform(lo, hi, top).map_err(|e| e.to_string())?;
@@ -125,8 +148,8 @@ fn layout(distance: u32, ring: f32) -> Result<World, String> {
 }
 
 /// Builds, welds and checks the view at `distance`; `Err` says why it stopped.
-fn view(distance: u32, ring: f32, field: &dyn Field) -> Result<View, String> {
-    let mut world = layout(distance, ring)?;
+fn view(distance: u32, ring: f32, max_threshold: f32, field: &dyn Field) -> Result<View, String> {
+    let mut world = layout(distance, ring, max_threshold)?;
     let top = (distance / CHUNK_RES).trailing_zeros();
     let keys = world.chunks();
     let mut levels: Vec<Level> = (0..=top).map(|_| Level::default()).collect();
@@ -262,6 +285,7 @@ impl Field for Capped<'_> {
 fn main() {
     let mut distances: Vec<u32> = Vec::new();
     let mut ring = 1.0f32;
+    let mut max_threshold = None;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         if a == "--ring" {
@@ -269,15 +293,25 @@ fn main() {
                 .next()
                 .and_then(|s| s.parse().ok())
                 .expect("--ring takes a number");
+        } else if a == "--no-materials" {
+            MATERIALS.store(false, Ordering::Relaxed);
+        } else if a == "--max-threshold" {
+            max_threshold = Some(
+                args.next()
+                    .and_then(|s| s.parse::<f32>().ok())
+                    .expect("--max-threshold takes a number (inf: none)"),
+            );
         } else {
             distances.push(a.parse().expect("a view distance in cells"));
         }
     }
+    let max_threshold = max_threshold
+        .unwrap_or_else(|| PLUGIN_LOD.around_limit(ring, CHUNK_RES, 1.0, MOTION_SLACK));
     if distances.is_empty() {
         distances = vec![256, 1024, 4096, 16384];
     }
     let field = terrain();
-    print_stage_times(&field);
+    print_stage_times(&field, max_threshold);
     match check_batched(&field, 1024, 2) {
         Ok(n) => println!(
             "batched sampling equals the value bit for bit at {n} corners (2 surface \
@@ -290,12 +324,13 @@ fn main() {
     }
     println!(
         "terrain seed 7, {CHUNK_RES}-cell chunks of 1-cell cells, ring {ring}, threshold \
-         {THRESHOLD} (own cells), {THREADS} threads; limits {} GB, {MAX_SECS} s",
+         {THRESHOLD} (own cells), trees for thresholds up to {max_threshold}, {THREADS} \
+         threads; limits {} GB, {MAX_SECS} s",
         MAX_BYTES >> 30
     );
     for d in distances {
         println!("\nview distance {d} cells");
-        let v = match view(d, ring, &field) {
+        let v = match view(d, ring, max_threshold, &field) {
             Err(e) => {
                 println!("  {e}");
                 continue;
@@ -308,7 +343,7 @@ fn main() {
             lo: v.region.0 + 0.5,
             hi: v.region.1 - 0.5,
         };
-        match view(d, ring, &capped) {
+        match view(d, ring, max_threshold, &capped) {
             Err(e) => println!("  capped: {e}"),
             Ok(c) => {
                 let r = &c.report;
@@ -325,8 +360,8 @@ fn main() {
 /// Times sampling against the whole build for one chunk near the camera (level
 /// 0) and one farther out (level 4), on one thread: the first of each level that
 /// the field's bound cannot skip.
-fn print_stage_times(field: &dyn Field) {
-    let world = layout(1024, 1.0).expect("a valid layout");
+fn print_stage_times(field: &dyn Field, max_threshold: f32) {
+    let world = layout(1024, 1.0, max_threshold).expect("a valid layout");
     for level in [0, 4] {
         let surface = |k: &ChunkKey| {
             let b = world.chunk_build(k);
@@ -377,7 +412,7 @@ fn print_stage_times(field: &dyn Field) {
 /// chunks of each level of the view at `distance` (chunks the bound cannot skip);
 /// returns how many corners it compared, or the first that differs.
 fn check_batched(field: &dyn Field, distance: u32, per_level: usize) -> Result<usize, String> {
-    let world = layout(distance, 1.0)?;
+    let world = layout(distance, 1.0, f32::INFINITY)?;
     let keys = world.chunks();
     let top = (distance / CHUNK_RES).trailing_zeros();
     let mut compared = 0;

@@ -602,3 +602,54 @@ fn random_world(keep: bool) -> World {
     w.keep_samples = keep;
     w
 }
+
+/// Every chunk below the top level of an `around` layout lies within
+/// `Layout::around_reach(ring)` of its own widths from the camera (random
+/// cameras in the region's middle top chunk, rings 0.5 to 3), so a horizon
+/// whose chunks take the LOD curve in their own cells never asks one for more
+/// than `Lod::around_limit`.
+#[test]
+fn around_layouts_keep_every_chunk_within_their_reach() {
+    let lod = kdcontour::Lod {
+        base: 0.001,
+        near: 16.0,
+        growth: 2.0,
+        max: 10.0,
+    };
+    let mut rng = Lcg(11);
+    for ring in [0.5f32, 1.0, 1.5, 2.0, 3.0] {
+        let reach = Layout::around_reach(ring);
+        let limit = lod.around_limit(ring, 32, 1.0, 0.0);
+        assert_eq!(limit, lod.threshold(reach * 32.0));
+        let mut farthest = 0f32;
+        for top in [3u32, 5] {
+            let side = 1i32 << top;
+            let (lo, hi) = (
+                IVec3::new(-side, 0, -side),
+                IVec3::new(2 * side, side, 2 * side),
+            );
+            for _ in 0..100 {
+                let camera = Vec3::new(
+                    (rng.next() as f32 / (1u32 << 31) as f32) * side as f32,
+                    (rng.next() as f32 / (1u32 << 31) as f32) * 4.0,
+                    (rng.next() as f32 / (1u32 << 31) as f32) * side as f32,
+                );
+                let layout = Layout::around(lo, hi, top, camera, ring).unwrap();
+                for k in layout.chunks().iter().filter(|k| k.level < top) {
+                    let widths = camera
+                        .clamp(k.lo().as_vec3(), k.hi().as_vec3())
+                        .distance(camera)
+                        / k.side() as f32;
+                    farthest = farthest.max(widths);
+                    assert!(widths <= reach, "ring {ring}: {k:?} at {widths} widths");
+                    // The plugin's threshold: the curve at the distance in own cells.
+                    assert!(lod.threshold(widths * 32.0) <= limit);
+                }
+            }
+        }
+        assert!(
+            farthest > 0.5 * reach,
+            "ring {ring}: the bound is loose: {farthest}"
+        );
+    }
+}

@@ -245,6 +245,19 @@ impl Layout {
         Self::balanced(lo, hi, out)
     }
 
+    /// How far (in its own chunk widths, to the nearest point of its box) a
+    /// chunk of an [`Layout::around`] layout below the top level can be from
+    /// the camera it was made for: `2 ring + 2√3 + 1`. Its parent split with
+    /// the camera within `ring` of its own widths, so within `2 ring` of the
+    /// chunk's, and the chunk lies within the parent's diagonal (`2√3`) of it;
+    /// balancing splits chunks a little farther (measured on random cameras
+    /// for rings 0.5 to 3: at most 5.1 widths, where `2 ring + 2√3` is 4.5 at
+    /// ring 0.5), which the last width covers. Top-level chunks tile the
+    /// region and are as far as it reaches.
+    pub fn around_reach(ring: f32) -> f32 {
+        2.0 * ring + 2.0 * 3f32.sqrt() + 1.0
+    }
+
     /// Balances a tiling of the region by splitting every chunk that touches one
     /// two or more levels finer, until none does.
     fn balanced(lo: IVec3, hi: IVec3, leaves: Vec<ChunkKey>) -> Result<Self> {

@@ -1,7 +1,7 @@
 //! Camera-driven thresholds: [`Lod`], a chunk's error threshold from its distance
 //! to the camera, and [`World::apply_lod`].
 
-use super::{ChunkKey, World};
+use super::{ChunkKey, Layout, World};
 use crate::error::{Error, Result};
 use glam::Vec3;
 
@@ -34,6 +34,20 @@ impl Lod {
     /// The threshold at distance `d`.
     pub fn threshold(&self, d: f32) -> f32 {
         (self.base * (d / self.near).max(1.0).powf(self.growth)).min(self.max)
+    }
+
+    /// The largest threshold the curve gives a chunk of an [`Layout::around`]
+    /// layout of ring `ring` (`chunk_res`-cell chunks, level-0 cells of side
+    /// `cell_size`) when each chunk takes the curve at its distance in its own
+    /// level's cells (as a horizon's chunks do) and the camera is at most
+    /// `slack` of the chunk's widths from where the layout was made for: the
+    /// curve at [`Layout::around_reach`]` + slack` chunk widths. A world whose
+    /// chunks are cut so builds with it as [`crate::Settings::max_threshold`];
+    /// a chunk farther (a camera far ahead of its layout, or above the region)
+    /// is cut at it, finer than the curve asks.
+    pub fn around_limit(&self, ring: f32, chunk_res: u32, cell_size: f32, slack: f32) -> f32 {
+        let widths = Layout::around_reach(ring) + slack.max(0.0);
+        self.threshold(widths * chunk_res as f32 * cell_size)
     }
 
     /// Checks the curve's values.
