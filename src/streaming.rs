@@ -55,6 +55,17 @@ fn stream_chunks(
                 min_y,
                 max_y,
             } => {
+                // Trees built from now on serve the thresholds the settings
+                // can ask (they may change at run time).
+                let limit = crate::horizon::max_threshold(
+                    &settings,
+                    vol.chunk_res,
+                    vol.cell_size,
+                    level0_cells,
+                );
+                if state.world().settings.max_threshold.to_bits() != limit.to_bits() {
+                    state.world_mut().settings.max_threshold = limit;
+                }
                 crate::horizon::stream(
                     &mut commands,
                     entity,

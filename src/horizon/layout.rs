@@ -38,8 +38,13 @@ pub fn horizon_layout(
         (max_y.div_euclid(side) + 1) * side,
         (held.z + 2) * side,
     );
-    let ring = level0_cells as f32 / (2 * chunk_res) as f32;
-    Layout::around(lo, hi, top, cam, ring)
+    Layout::around(lo, hi, top, cam, ring(chunk_res, level0_cells))
+}
+
+/// The ring of [`Layout::around`] that puts level-0 chunks about
+/// `level0_cells` from the camera.
+pub(crate) fn ring(chunk_res: u32, level0_cells: u32) -> f32 {
+    level0_cells as f32 / (2 * chunk_res.max(1)) as f32
 }
 
 /// Whether chunk `k` reaches into level-0 chunk rows `rows`.

@@ -41,6 +41,17 @@
 //! edit is lost.
 //!
 //! The first layout of a volume replaces nothing: its chunks show as they land.
+//!
+//! ## Trees for the thresholds the curve gives
+//! A chunk of a horizon layout takes the LOD curve at its distance in its own
+//! level's cells, and the layout keeps every chunk within a few of its own
+//! widths of the camera ([`Layout::around_reach`]). So the volume's trees are
+//! built for thresholds up to the curve's there, two more widths out for a
+//! camera ahead of its layout ([`max_threshold`], as
+//! [`kdcontour::Settings::max_threshold`]): the fold guard checks no merge
+//! above it. A chunk asked for more (a camera far from its layout, or a
+//! setting raised at run time until the chunk is rebuilt) is cut at it, finer
+//! than asked and never folded.
 
 pub(crate) mod layout;
 pub(crate) mod motion;
@@ -57,6 +68,33 @@ use kdcontour::world::layout::MAX_LEVEL;
 use kdcontour::world::{ChunkKey, ChunkSet, Layout};
 use kdcontour::{Settings, World};
 use layout::Transition;
+
+/// Chunk widths a camera may be from where its layout was made for, in
+/// [`max_threshold`]: a still or slow camera is within one.
+const MOTION_SLACK: f32 = 2.0;
+
+/// The largest threshold a horizon volume of `chunk_res`-cell chunks of
+/// `cell_size` with level-0 chunks out to `level0_cells` asks of a chunk (see
+/// the module docs): the LOD curve's at [`Layout::around_reach`] plus
+/// [`MOTION_SLACK`] chunk widths, or the default threshold when that is
+/// higher or the camera does not drive thresholds.
+pub(crate) fn max_threshold(
+    settings: &crate::KdContourSettings,
+    chunk_res: u32,
+    cell_size: f32,
+    level0_cells: u32,
+) -> f32 {
+    let ring = layout::ring(chunk_res, level0_cells);
+    let curve = if settings.lod.enabled {
+        settings
+            .lod
+            .curve()
+            .around_limit(ring, chunk_res, cell_size, MOTION_SLACK)
+    } else {
+        f32::NEG_INFINITY
+    };
+    curve.max(settings.default_threshold)
+}
 
 /// The level world of a new horizon volume (its layout comes from the camera
 /// when streaming first runs). Checks the extent's settings.

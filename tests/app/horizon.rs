@@ -196,6 +196,23 @@ fn a_flight_with_edits_keeps_the_horizon_whole_and_loses_nothing() {
         regions.push(lo);
     }
     assert_eq!(state.edit_log().len(), edits, "an edit was lost");
+    // The trees are built for the thresholds the camera asks of the view: up
+    // to the LOD curve's a few chunk widths out, in each chunk's own cells.
+    let world = state.world();
+    let limit = world.settings.max_threshold;
+    let lod = LodSettings {
+        base: 0.01,
+        near: 8.0,
+        ..Default::default()
+    };
+    let ring = 1.0; // level-0 chunks out to 2 * RES cells
+    let widths = kdcontour::world::Layout::around_reach(ring) + 2.0;
+    assert_eq!(limit, lod.curve().threshold(widths * RES as f32));
+    for (k, _) in state.shown_chunks() {
+        if let Some(tree) = world.tree(&k) {
+            assert_eq!(tree.max_threshold(), limit, "{k:?}");
+        }
+    }
     let field = app.world().get::<VolumeState>(v).unwrap().field().clone();
     assert_shown_match_fresh(&app, v, &field);
     assert!(changing > 20, "levels changed in only {changing} frames");
