@@ -111,6 +111,9 @@
 //!   vertices there may stand up to about a cell further from the surface than
 //!   its threshold alone allows; away from level seams each chunk keeps its bound
 //!   in its own cells.
+//! - A tree built with [`Settings::max_threshold`] is cut at that threshold when
+//!   asked for a higher one: its mesh there keeps the error bound of the limit,
+//!   not of the coarser threshold asked, and has more triangles than it would.
 //!
 //! Error thresholds are QEF residuals in squared cells (a sum over the crossings
 //! a vertex stands for), so a threshold means the same at every resolution.
