@@ -170,15 +170,15 @@ pub(super) fn cell_vertices(
         // those of the quads near it cross, with the patches at `vertex`;
         // each patch's count is the sum of its quads'.
         let counts = |which: &[bool], vertex: &[Vec3], slot: &mut [u32]| {
-            let mut used: Vec<u32> = (0..sides.len())
-                .filter(|&i| which[i])
-                .flat_map(|i| near.of(i))
-                .copied()
-                .collect();
-            used.sort_unstable();
-            used.dedup();
-            for (i, &q) in used.iter().enumerate() {
-                slot[q as usize] = i as u32;
+            // Each quad once, in the order first met (a quad's slot marks it).
+            let mut used: Vec<u32> = Vec::new();
+            for i in (0..sides.len()).filter(|&i| which[i]) {
+                for &q in near.of(i) {
+                    if slot[q as usize] == u32::MAX {
+                        slot[q as usize] = used.len() as u32;
+                        used.push(q);
+                    }
+                }
             }
             let placed: Vec<PlacedQuad> = used
                 .par_iter()
@@ -196,11 +196,7 @@ pub(super) fn cell_vertices(
             around
                 .of(p)
                 .iter()
-                .map(|q| {
-                    n[sides
-                        .binary_search(q)
-                        .expect("a quad around a moving patch")]
-                })
+                .map(|&q| n[side_of[q as usize] as usize])
                 .sum()
         };
 
@@ -212,10 +208,8 @@ pub(super) fn cell_vertices(
         if after_n.iter().any(|&n| n > 0) {
             let mut which = vec![false; sides.len()];
             for (&p, _) in moving.iter().zip(&after_n).filter(|(_, &n)| n > 0) {
-                for q in around.of(p) {
-                    which[sides
-                        .binary_search(q)
-                        .expect("a quad around a moving patch")] = true;
+                for &q in around.of(p) {
+                    which[side_of[q as usize] as usize] = true;
                 }
             }
             let before = counts(&which, &prev, &mut slot);
