@@ -67,8 +67,22 @@ impl<'a> Facing<'a> {
                 let p = [0, 1, 2, 3].map(world);
                 let n = [0, 1, 2, 3].map(|i| corners[i].1);
                 let s = QuadSplit::new(p, n, facing);
-                if !((s.faces[0] && s.faces[1]) || (s.faces[2] && s.faces[3])) {
+                let (ok02, ok13) = (s.faces[0] && s.faces[1], s.faces[2] && s.faces[3]);
+                if !(ok02 || ok13) {
                     return false;
+                }
+                // Either split faces its edge: when all four triangles also pass
+                // the tests that read no field, the one the mesh takes does.
+                if ok02
+                    && ok13
+                    && (0..4).all(|k| {
+                        let t = QuadSplit::TRIS[k];
+                        self.sized(s.cross[k])
+                            && !self.strays(s.cross[k], t.map(|i| n[i]))
+                            && also(t.map(|i| p[i]))
+                    })
+                {
+                    return true;
                 }
                 let pair = if s.takes_02(&p) { [0, 1] } else { [2, 3] };
                 pair.into_iter().all(|k| {
