@@ -27,9 +27,9 @@
 //! polygons, so the pass repeats until none is refused. A tree with a largest
 //! threshold ([`crate::Settings::max_threshold`]) has no leaf above it, so the
 //! climb stops there (a limit of 0.2 takes the build of the terrain demo's
-//! level-3 and level-6 chunks from 5.7 and 6.3 ms to 4.3 ms). Seen along its
-//! edge, a
-//! polygon of vertices inside their boxes winds once around the edge, so the cells
+//! level-3 and level-6 chunks, borders off, from 5.7 and 6.3 ms to 4.3 ms).
+//! Seen along its edge, a polygon of vertices inside their boxes winds once
+//! around the edge, so the cells
 //! alone never need refusing for this reason; at the finest level the cells'
 //! vertices are already placed so their quads do not fold (`hermite::vertex`).
 //!
