@@ -104,7 +104,9 @@ fn level_worlds(names: &[String]) {
     let cell = 2.0 / (REGION as u32 * RES) as f32;
     let (lo, hi) = (IVec3::ZERO, IVec3::splat(REGION));
     println!("\nlevel worlds: {REGION}^3 level-0 chunks of {RES} cells, levels 0 to 2");
-    println!("scene        layout   e       tris  zero flip (seams inside) cross ovlp");
+    println!(
+        "scene        layout   e       tris  zero flip (seams inside) [between-levels same-level] cross ovlp"
+    );
     let mut totals = [0usize; 6];
     // Seam flips by kind: faces between levels, faces within one, chunk edges.
     let mut by_kind = [0usize; 3];
@@ -157,6 +159,8 @@ fn level_worlds(names: &[String]) {
                 );
                 let i = r.intersections.clone().unwrap_or_default();
                 let (mut seams, mut inside) = (0, 0);
+                // This row's seam flips by kind.
+                let mut row_kind = [0usize; 3];
                 let mut one = IndexedMesh::default();
                 for k in w.chunks() {
                     for s in w.owned_seams(&k) {
@@ -164,6 +168,7 @@ fn level_worlds(names: &[String]) {
                         let flipped = faces(&one, &*scene.field, cell).0;
                         seams += flipped;
                         by_kind[kind(&s)] += flipped;
+                        row_kind[kind(&s)] += flipped;
                     }
                     w.extract_interior(&k, &mut one);
                     inside += faces(&one, &*scene.field, cell).0;
@@ -183,10 +188,12 @@ fn level_worlds(names: &[String]) {
                     .get(round)
                     .map_or("random".to_string(), |e| e.to_string());
                 println!(
-                    "{name:<12} {layout_name:<8} {e:<6} {:>6} {:>5} {:>4} ({seams:>5} {inside:>6}) {:>5} {:>4}{}",
+                    "{name:<12} {layout_name:<8} {e:<6} {:>6} {:>5} {:>4} ({seams:>5} {inside:>6}) [{:>4} {:>4}] {:>5} {:>4}{}",
                     r.triangles,
                     r.zero_area_triangles,
                     flip,
+                    row_kind[0],
+                    row_kind[1],
                     i.crossing_triangles,
                     i.overlapping_triangles,
                     if r.is_closed_manifold() { "" } else { "  NOT CLOSED MANIFOLD" },
