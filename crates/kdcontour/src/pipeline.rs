@@ -56,19 +56,34 @@ pub fn hermite(field: &dyn Field, grid: &Grid, settings: &Settings) -> Result<He
 /// refused, and painted with the field's materials (when `settings.materials` and
 /// the field has them).
 pub fn tree(h: &Hermite, field: &dyn Field, settings: &Settings, cells: Cells) -> KdTree {
-    let (core, finer_faces, coarser) = match cells {
+    let coarser = match cells {
+        Cells::All => None,
+        Cells::Core {
+            res, coarser_faces, ..
+        } => Coarser::new(&h.grid, field, settings, res, coarser_faces),
+    };
+    tree_beside(h, field, settings, cells, coarser.as_ref())
+}
+
+/// [`tree`], with the coarse cells across the chunk's faces toward coarser
+/// chunks already sampled (`coarser`, from `Cells::Core`'s `coarser_faces`).
+pub(crate) fn tree_beside(
+    h: &Hermite,
+    field: &dyn Field,
+    settings: &Settings,
+    cells: Cells,
+    coarser: Option<&Coarser>,
+) -> KdTree {
+    let (core, finer_faces) = match cells {
         Cells::All => {
             let g = h.grid.cells;
-            (([0, 0, 0], [g.x as u16, g.y as u16, g.z as u16]), 0, None)
+            (([0, 0, 0], [g.x as u16, g.y as u16, g.z as u16]), 0)
         }
         Cells::Core {
-            res,
-            finer_faces,
-            coarser_faces,
+            res, finer_faces, ..
         } => {
             let r = res as u16;
-            let coarser = Coarser::new(&h.grid, field, settings, res, coarser_faces);
-            (([1, 1, 1], [r + 1, r + 1, r + 1]), finer_faces, coarser)
+            (([1, 1, 1], [r + 1, r + 1, r + 1]), finer_faces)
         }
     };
     let mut tree = build_in(
@@ -77,7 +92,7 @@ pub fn tree(h: &Hermite, field: &dyn Field, settings: &Settings, cells: Cells) -
         (settings.partition, settings.max_threshold),
         core,
         finer_faces,
-        coarser.as_ref(),
+        coarser,
     );
     crate::kdtree::paint_tree(&mut tree, field, settings);
     tree

@@ -10,6 +10,7 @@ use crate::error::{Error, Result};
 use crate::facing::Facing;
 use crate::field::Field;
 use crate::grid::Grid;
+use crate::kdtree::Coarser;
 use crate::material;
 use crate::qef::Qef;
 use crate::settings::Settings;
@@ -188,7 +189,8 @@ impl Hermite {
             check_grid(&big, settings)?;
             let values = boundary::pad_values(grid, &values)?;
             let cap = Cap { cells: big.cells };
-            return Ok(Hermite::build(field, &big, &values, settings, Some((cap, *grid)), None)?.0);
+            let capped = Some((cap, *grid));
+            return Ok(Hermite::build(field, &big, &values, settings, capped, None, None)?.0);
         }
         Hermite::new(field, grid, &values, settings)
     }
@@ -200,7 +202,7 @@ impl Hermite {
         values: &[f32],
         settings: &Settings,
     ) -> Result<Self> {
-        Ok(Hermite::build(field, grid, values, settings, None, None)?.0)
+        Ok(Hermite::build(field, grid, values, settings, None, None, None)?.0)
     }
 
     /// [`Hermite::new`], taking each edge's crossing from `kept` (crossings an
@@ -214,13 +216,29 @@ impl Hermite {
         settings: &Settings,
         kept: Option<&KeptCrossings>,
     ) -> Result<(Self, KeptCrossings)> {
-        let (h, kept) = Hermite::build(field, grid, values, settings, None, Some(kept))?;
+        let (h, kept) = Hermite::build(field, grid, values, settings, None, Some(kept), None)?;
         Ok((h, kept.unwrap_or_default()))
+    }
+
+    /// A chunk's data ([`Hermite::new`], or [`Hermite::reusing`] with `keep`),
+    /// its cells' vertices placed against the coarse cells across its faces
+    /// toward coarser chunks (`coarser`), which the seams there take instead
+    /// of its halo's.
+    pub(crate) fn for_chunk(
+        field: &dyn Field,
+        grid: &Grid,
+        values: &[f32],
+        settings: &Settings,
+        keep: Option<Option<&KeptCrossings>>,
+        coarser: Option<&Coarser>,
+    ) -> Result<(Self, Option<KeptCrossings>)> {
+        Hermite::build(field, grid, values, settings, None, keep, coarser)
     }
 
     /// [`Hermite::new`], on a grid whose added corners `cap` marks when capped
     /// (with the grid the caps close); with `keep`, reusing the crossings it
-    /// holds that fit (see [`Hermite::reusing`]) and returning this build's.
+    /// holds that fit (see [`Hermite::reusing`]) and returning this build's;
+    /// with `coarser`, as [`Hermite::for_chunk`].
     fn build(
         field: &dyn Field,
         grid: &Grid,
@@ -228,6 +246,7 @@ impl Hermite {
         settings: &Settings,
         capped: Option<(Cap, Grid)>,
         keep: Option<Option<&KeptCrossings>>,
+        coarser: Option<&Coarser>,
     ) -> Result<(Self, Option<KeptCrossings>)> {
         let (cap, capped) = (capped.map(|c| c.0), capped.map(|c| c.1));
         let surface = Surface::of(field, capped.as_ref());
@@ -244,13 +263,16 @@ impl Hermite {
         let outside = sign_bits(values, grid.corners());
         let kept =
             keep.map(|_| KeptCrossings::keep(grid, settings, borders, outside.clone(), &found));
-        let p = patches::accumulate(found, &cells, &lookup, values, grid, patches, borders)?;
+        let p = patches::accumulate(
+            found, &cells, &lookup, values, grid, patches, borders, coarser,
+        )?;
         let patch_vertex = vertex::cell_vertices(
             &cells,
             &p.qef,
             &p.normal,
             &p.quads,
             &Facing::new(surface.field(), grid),
+            &p.fixed,
         );
         drop(p.quads);
         let (cell_material, cell_border) =

@@ -9,9 +9,11 @@ use super::{ActiveCell, EdgeCrossing};
 use crate::cell::{edge_index, CellTables, NO_COMP};
 use crate::error::Result;
 use crate::grid::Grid;
+use crate::kdtree::Coarser;
 use crate::material;
 use crate::qef::Qef;
 use glam::Vec3;
+use std::collections::HashMap;
 
 /// What the crossings add up to.
 pub(super) struct Patches {
@@ -29,10 +31,17 @@ pub(super) struct Patches {
     /// Per active cell, with borders kept: the material code of its own edges'
     /// crossings; empty otherwise.
     pub(super) own_material: Vec<u16>,
+    /// The coarse cells' corners that quads across faces toward coarser chunks
+    /// take instead of halo cells: vertex and unit normal (quad patch
+    /// `qef.len() + i` is the `i`th).
+    pub(super) fixed: Vec<(Vec3, Vec3)>,
 }
 
 /// Adds up `found` (the crossings, in cell order) over the `patches` patches of
-/// `cells`; the first error in order is returned.
+/// `cells`; the first error in order is returned. With `coarser` (a chunk's
+/// coarse cells across its faces toward coarser chunks), a quad's halo cells
+/// across such a face are the coarse corners the seam will take there.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn accumulate(
     found: Vec<Result<Vec<Crossing>>>,
     cells: &[ActiveCell],
@@ -41,6 +50,7 @@ pub(super) fn accumulate(
     grid: &Grid,
     patches: u32,
     borders: bool,
+    coarser: Option<&Coarser>,
 ) -> Result<Patches> {
     let tables = CellTables::get();
     let n = grid.cells;
@@ -50,6 +60,9 @@ pub(super) fn accumulate(
     let mut crossings = 0usize;
     let mut edges = Vec::new();
     let mut quads = Vec::new();
+    let mut fixed = Vec::new();
+    // Each coarse corner's place in `fixed`, by its id.
+    let mut fixed_index: HashMap<u32, u32> = HashMap::new();
     let mut own_material = if borders {
         vec![material::UNSET; cells.len()]
     } else {
@@ -108,6 +121,24 @@ pub(super) fn accumulate(
             // forced inside, a conformed face): its cells' vertices are not
             // judged by it.
             if !quad.contains(&u32::MAX) && !x.forced {
+                if let Some(k) = coarser {
+                    let halo = |c: [u32; 3]| (0..3).any(|i| c[i] == 0 || c[i] + 1 == n[i]);
+                    for (q, (su, sv)) in [(0, 0), (1, 0), (1, 1), (0, 1)].into_iter().enumerate() {
+                        let mut c = g;
+                        c[u] = g[u] + su - 1;
+                        c[v] = g[v] + sv - 1;
+                        if !halo(c) {
+                            continue;
+                        }
+                        if let Some(corner) = k.corner(c, g, a, q) {
+                            let next = patches + fixed.len() as u32;
+                            quad[q] = *fixed_index.entry(corner.id).or_insert_with(|| {
+                                fixed.push((corner.pos, corner.normal));
+                                next
+                            });
+                        }
+                    }
+                }
                 let mut facing = Vec3::ZERO;
                 facing[a] = 1.0;
                 if values[cidx(g[0], g[1], g[2])] >= 0.0 {
@@ -129,5 +160,6 @@ pub(super) fn accumulate(
         edges,
         quads,
         own_material,
+        fixed,
     })
 }

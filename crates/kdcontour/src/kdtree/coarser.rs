@@ -1,5 +1,5 @@
-//! What a chunk's fold guard stands across its faces toward coarser chunks: the
-//! coarse chunk's cells there ([`Coarser`]).
+//! What a chunk's fold guard and its cells' vertices stand across its faces
+//! toward coarser chunks: the coarse chunk's cells there ([`Coarser`]).
 //!
 //! A seam polygon across a face between levels joins the finer chunk's leaves to
 //! the coarser chunk's cells (the coarser chunk keeps cells along faces toward
@@ -17,7 +17,10 @@
 //! inside as it forces it), with the Hermite data of the coarser chunk's cells.
 //! In level worlds of the sphere, gyroid and csg_mix, 1,105 of 1,114 coarse
 //! vertices the guard reads are the coarser tree's to within a thousandth of a
-//! cell (the test below).
+//! cell (the test below). The chunk's Hermite stage reads the same corners
+//! ([`crate::hermite::Hermite::for_chunk`]): the quads of the fine edges on such a
+//! face take them, fixed, where they take halo cells, so the fine cells' vertices
+//! are placed against the coarse ones the seam joins them to.
 //!
 //! A coarse cell's vertex is placed by the same rules in both builds, but that
 //! placement looks at the cells around it ([`crate::hermite`]), and the slab
@@ -37,7 +40,7 @@ use glam::{IVec3, UVec3, Vec3};
 use std::collections::HashMap;
 
 /// The coarse cells across a chunk's faces toward coarser chunks, for its fold
-/// guard.
+/// guard and its cells' vertices.
 pub(crate) struct Coarser {
     /// The chunk's grid: its level's cells, one of halo all round.
     grid: Grid,

@@ -7,7 +7,7 @@ use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::grid::Grid;
 use crate::hermite::{self, Hermite, KeptCrossings};
-use crate::kdtree::KdTree;
+use crate::kdtree::{Coarser, KdTree};
 use crate::pipeline::{self, Cells};
 use crate::Settings;
 use glam::{IVec3, UVec3, Vec3};
@@ -132,23 +132,26 @@ impl ChunkBuild {
                     });
                 }
             }
-            let (h, crossings) = if self.keep && samples.is_some() {
-                let reuse = reuse.map(|k| &**k);
-                let (h, kept) =
-                    Hermite::reusing(field, &self.grid, &values, &self.settings, reuse)?;
-                (h, Some(Arc::new(kept)))
-            } else {
-                (
-                    Hermite::new(field, &self.grid, &values, &self.settings)?,
-                    None,
-                )
-            };
+            let coarser_faces = self.neighbourhood.coarser_face_bits();
+            // The coarse cells the seams take across faces toward coarser
+            // chunks: the cells' vertices and the fold guard are held to them.
+            let coarser = Coarser::new(&self.grid, field, &self.settings, self.res, coarser_faces);
+            let keep = (self.keep && samples.is_some()).then(|| reuse.map(|k| &**k));
+            let (h, kept) = Hermite::for_chunk(
+                field,
+                &self.grid,
+                &values,
+                &self.settings,
+                keep,
+                coarser.as_ref(),
+            )?;
+            let crossings = kept.map(Arc::new);
             let cells = Cells::Core {
                 res: self.res,
                 finer_faces: self.neighbourhood.finer_face_bits(),
-                coarser_faces: self.neighbourhood.coarser_face_bits(),
+                coarser_faces,
             };
-            let tree = pipeline::tree(&h, field, &self.settings, cells);
+            let tree = pipeline::tree_beside(&h, field, &self.settings, cells, coarser.as_ref());
             Ok(BuiltChunk {
                 tree: Arc::new(tree),
                 samples: samples.filter(|_| self.keep),
