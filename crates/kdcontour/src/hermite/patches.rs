@@ -122,12 +122,20 @@ pub(super) fn accumulate(
             // judged by it.
             if !quad.contains(&u32::MAX) && !x.forced {
                 if let Some(k) = coarser {
+                    // The quadrants' cells, and which are halo cells. Only an
+                    // edge the chunk's own cells touch is on a seam (one on the
+                    // face, or along the chunk's edge); an edge of halo cells
+                    // alone is no seam's.
                     let halo = |c: [u32; 3]| (0..3).any(|i| c[i] == 0 || c[i] + 1 == n[i]);
-                    for (q, (su, sv)) in [(0, 0), (1, 0), (1, 1), (0, 1)].into_iter().enumerate() {
+                    let quadrants = [(0, 0), (1, 0), (1, 1), (0, 1)].map(|(su, sv)| {
                         let mut c = g;
                         c[u] = g[u] + su - 1;
                         c[v] = g[v] + sv - 1;
-                        if !halo(c) {
+                        c
+                    });
+                    let seam = !quadrants.iter().all(|&c| halo(c));
+                    for (q, c) in quadrants.into_iter().enumerate() {
+                        if !seam || !halo(c) {
                             continue;
                         }
                         if let Some(corner) = k.corner(c, g, a, q) {
