@@ -40,7 +40,9 @@ pub enum Cells {
         finer_faces: u8,
         /// The chunk's faces toward coarser chunks (bits as `finer_faces`): the
         /// fold guard holds the seam polygons across them to the coarse cells,
-        /// sampled from the field.
+        /// sampled from the field. (A world's chunks also place their cells'
+        /// vertices against those cells; Hermite data from [`hermite`] has
+        /// them placed against the halo.)
         coarser_faces: u8,
     },
 }
