@@ -5,9 +5,9 @@
 //! `[-1, 1]^3` (128 cells at level 0, 32 at level 2), laid out at levels 0 to 2
 //! at random (two seeds) and in rings around a camera in a corner, every chunk
 //! at each threshold in turn and then at random ones. Their flipped faces are
-//! split into those of the seams ([`World::extract_seam`]; in the totals, by
-//! kind: faces between levels, faces within one level, chunk edges) and those inside
-//! the chunks.
+//! split into those of the seams ([`World::extract_seam`]; by kind, per row
+//! faces between levels and faces within one level, in the totals chunk edges
+//! too) and those inside the chunks.
 //!
 //! `cargo run --release -p kdcontour --example defects -- [scenes,..] [res,..]`
 //! (default: every scene at 32 and 64; thresholds -1, 0.001, 0.01, 0.1, 1).
