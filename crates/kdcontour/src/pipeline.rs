@@ -36,7 +36,10 @@ pub enum Cells {
         /// Cells per side.
         res: u32,
         /// The chunk's faces toward finer chunks (bit `2 * axis + side`, side 1
-        /// the high face): every leaf touching one is a cell.
+        /// the high face): every leaf touching one is a cell. On its other faces
+        /// but those toward coarser chunks (faces toward chunks of its own
+        /// level, and the world's outer faces) no leaf reaches more than two
+        /// cells in.
         finer_faces: u8,
         /// The chunk's faces toward coarser chunks (bits as `finer_faces`): the
         /// fold guard holds the seam polygons across them to the coarse cells,
@@ -76,16 +79,24 @@ pub(crate) fn tree_beside(
     cells: Cells,
     coarser: Option<&Coarser>,
 ) -> KdTree {
-    let (core, finer_faces) = match cells {
+    let (core, faces) = match cells {
         Cells::All => {
             let g = h.grid.cells;
-            (([0, 0, 0], [g.x as u16, g.y as u16, g.z as u16]), 0)
+            (([0, 0, 0], [g.x as u16, g.y as u16, g.z as u16]), (0, 0))
         }
         Cells::Core {
-            res, finer_faces, ..
+            res,
+            finer_faces,
+            coarser_faces,
         } => {
             let r = res as u16;
-            (([1, 1, 1], [r + 1, r + 1, r + 1]), finer_faces)
+            // The faces toward chunks of the chunk's own level (and the world's
+            // outer faces, which have none).
+            let same_faces = 0b11_1111 & !finer_faces & !coarser_faces;
+            (
+                ([1, 1, 1], [r + 1, r + 1, r + 1]),
+                (finer_faces, same_faces),
+            )
         }
     };
     let mut tree = build_in(
@@ -93,7 +104,7 @@ pub(crate) fn tree_beside(
         field,
         (settings.partition, settings.max_threshold),
         core,
-        finer_faces,
+        faces,
         coarser,
     );
     crate::kdtree::paint_tree(&mut tree, field, settings);

@@ -421,6 +421,83 @@ fn cells_beside_a_coarser_chunk_are_placed_against_its_cells() {
     }
 }
 
+/// Leaves touching a face toward a chunk of the same level reach at most two
+/// cells in (`kdtree::build`'s `SAME_SLAB`), merging along the face as before:
+/// each chunk's fold guard stands the other's cells across the face, and two
+/// merged leaves reaching far in on both sides passed both guards and folded
+/// the seam between them. On the box's faces (16-cell chunks, levels 0 to 2)
+/// that was 21 to 24 flipped and 125 to 142 overlapping faces per threshold on
+/// the seams within one level; the gyroid had 33 at threshold 1. Now 4, 14 to
+/// 16 and 7.
+#[test]
+fn merged_leaves_on_both_sides_of_a_face_within_one_level_keep_their_seam() {
+    let (lo, hi) = (glam::IVec3::ZERO, glam::IVec3::splat(8));
+    let cell = 2.0 / 128.0;
+    let mut one = IndexedMesh::default();
+    for (name, layout, thresholds, most_flipped, most_overlapping) in [
+        (
+            "box",
+            Layout::random(lo, hi, 2, 0.5, 7),
+            &THRESHOLDS[1..],
+            6,
+            24,
+        ),
+        (
+            "gyroid",
+            Layout::random(lo, hi, 2, 0.3, 3),
+            &THRESHOLDS[4..],
+            10,
+            0,
+        ),
+    ] {
+        let scene = scenes::scene(name).unwrap();
+        let field = &*scene.field;
+        let mut w = World::new(
+            Vec3::splat(-1.0),
+            cell,
+            16,
+            layout.unwrap(),
+            -1.0,
+            Settings::default(),
+        )
+        .unwrap();
+        w.build_all(field).unwrap();
+        let within: Vec<Seam> = w
+            .chunks()
+            .iter()
+            .flat_map(|k| w.owned_seams(k))
+            .filter(|s| matches!(*s, Seam::Face { low, high, .. } if low.level == high.level))
+            .collect();
+        for &e in thresholds {
+            for k in w.chunks() {
+                w.set_threshold(&k, e);
+            }
+            let mut flipped = 0;
+            for s in &within {
+                w.extract_seam(s, &mut one);
+                flipped += report(&one, field, cell).flipped_triangles.unwrap_or(0);
+            }
+            let r = report(&w.extract_all(), field, cell);
+            let overlapping = r
+                .intersections
+                .as_ref()
+                .expect("requested")
+                .overlapping_triangles;
+            println!(
+                "{name} at {e}: {flipped} flipped faces on {} faces within one level, \
+                 {overlapping} overlapping in the world",
+                within.len()
+            );
+            assert!(r.is_closed_manifold(), "{name} at {e}: {r:?}");
+            assert!(
+                flipped <= most_flipped && overlapping <= most_overlapping,
+                "{name} at {e}: {flipped} flipped on seams within one level, \
+                 {overlapping} overlapping"
+            );
+        }
+    }
+}
+
 #[test]
 fn a_scan_has_no_zero_area_or_overlapping_face() {
     // The Shepp-Logan phantom at 64 voxels and its skull's iso value: thin shells

@@ -86,6 +86,9 @@ pub(super) struct Ctx<'a> {
     /// Per active cell, in a chunk with faces toward finer chunks
     /// ([`crate::pipeline::Cells::Core`]): those it touches; empty otherwise.
     pub(super) finer: Vec<u8>,
+    /// Per active cell, in a chunk with faces toward chunks of its own level
+    /// ([`crate::pipeline::Cells::Core`]): those it touches; empty otherwise.
+    pub(super) same: Vec<u8>,
     /// Per active cell, when materials are tracked: what it is to a material
     /// border (module `borders`); empty otherwise.
     pub(super) kinds: Vec<super::borders::Kinds>,

@@ -32,21 +32,38 @@ const PARALLEL_DEPTH: u32 = 4;
 /// See [`PARALLEL_DEPTH`]; below this the join overhead exceeds the work.
 const PARALLEL_CELLS: usize = 1024;
 
+/// How far (cells) a leaf touching a chunk's face toward a chunk of its own
+/// level may reach in from it. The seam across such a face joins the two
+/// chunks' leaves, each cut on its own, and each chunk's fold guard stands the
+/// other's cells there (it cannot know the other's tree): two merged leaves
+/// reaching far in on both sides passed both guards and still folded their
+/// seam polygons, a fan from one side's deep vertex to the other side's
+/// vertices zigzagging between cells and deep leaves (on the box's faces,
+/// triangles 30 cells long). With leaves held to a slab this thin, merged
+/// along the face as freely as before, the `defects` example's level worlds
+/// (8 analytic and CSG scenes) had 90 flipped faces on faces within one level
+/// instead of 313, 112 overlapping instead of 917, for 1.9% more triangles;
+/// a slab of 1 left 95 with 50 zero-area faces, one of 3 left 197, the slab on
+/// one side of each face alone 215 and 278.
+const SAME_SLAB: u16 = 2;
+
 /// Builds the tree over the cells in the box `core_min..core_max` only (a chunk
 /// inside a grid with a halo: the halo's cells decide the face resolution of the
 /// core's boundary cells but belong to the neighbouring chunk). `field` is the
 /// field the data was sampled from: the fold guard holds the clustered polygons
 /// to it (`kdtree::fold`). On the box's faces in `finer_faces` (bit `2 * axis +
 /// side`: a chunk's faces toward finer chunks) every leaf is a cell
-/// ([`finer_cells`]). Across faces toward coarser chunks the fold guard stands
-/// the coarse cells of `coarser` (module `coarser`). The pipeline's tree stage
-/// ([`crate::pipeline::tree`]) is the way in.
+/// ([`face_cells`]); on those in `same_faces` (toward chunks of its own level)
+/// no leaf reaches more than [`SAME_SLAB`] cells in. Across faces toward
+/// coarser chunks the fold guard stands the coarse cells of `coarser` (module
+/// `coarser`). The pipeline's tree stage ([`crate::pipeline::tree`]) is the way
+/// in.
 pub(crate) fn build_in(
     h: &Hermite,
     field: &dyn Field,
     (partition, max_threshold): (Partition, f32),
     (core_min, core_max): ([u16; 3], [u16; 3]),
-    finer_faces: u8,
+    (finer_faces, same_faces): (u8, u8),
     coarser: Option<&Coarser>,
 ) -> KdTree {
     let tables = CellTables::get();
@@ -78,7 +95,8 @@ pub(crate) fn build_in(
         tables,
         any_open: ids.iter().any(|&i| open[i as usize] != 0),
         open,
-        finer: finer_cells(h, (core_min, core_max), finer_faces),
+        finer: face_cells(h, (core_min, core_max), finer_faces),
+        same: face_cells(h, (core_min, core_max), same_faces),
         kinds: borders::cell_kinds(h),
     };
     // At most about three nodes and components per active cell (measured: 2.3 on
@@ -161,6 +179,15 @@ fn build_node(
             .fold(0u8, |acc, &id| acc | ctx.finer[id as usize])
     };
     let thick = thick | (finer & thick_faces(min, max));
+    // Faces toward chunks of this level that this node's cells touch, where it
+    // reaches more than `SAME_SLAB` cells in: it may not be a leaf, and the k-d
+    // tree splits that slab off first.
+    let same = if ctx.same.is_empty() {
+        0
+    } else {
+        ids.iter().fold(0u8, |acc, &id| acc | ctx.same[id as usize])
+    };
+    let deep = same & faces_thicker_than(min, max, SAME_SLAB);
     // A small node whose cells leave part of its box empty cuts the largest
     // empty slab off first (module `split`).
     let empty = (ctx.partition == Partition::KdTree && thick == 0 && ids.len() <= EMPTY_CUT_CELLS)
@@ -175,7 +202,8 @@ fn build_node(
     let (axis, split, ltotal, rtotal) = match ctx.partition {
         _ if empty.is_some() => empty.expect("just tested"),
         _ if by_material.is_some() => by_material.expect("just tested"),
-        Partition::KdTree if thick != 0 => slab_split(ctx, ids, min, max, thick),
+        Partition::KdTree if thick != 0 => slab_split(ctx, ids, min, max, thick, 1),
+        Partition::KdTree if deep != 0 => slab_split(ctx, ids, min, max, deep, SAME_SLAB),
         Partition::KdTree => kd_split(ctx, ids, min, max, &total),
         Partition::Octree => {
             // Midpoint, cycling x, y, z (an axis one cell thick is skipped).
@@ -261,6 +289,7 @@ fn build_node(
         split,
         clusterable: false,
         leaf_ok: thick == 0
+            && deep == 0
             && finer == 0
             && straight
             && (ctx.partition == Partition::KdTree || depth.is_multiple_of(3)),
@@ -302,15 +331,21 @@ fn thick_open_faces(ctx: &Ctx, open: u8, min: [u16; 3], max: [u16; 3]) -> u8 {
 /// Both faces' bits (as [`open_faces`]) of each axis across which the node
 /// `min..max` is more than one cell thick.
 fn thick_faces(min: [u16; 3], max: [u16; 3]) -> u8 {
+    faces_thicker_than(min, max, 1)
+}
+
+/// Both faces of each axis along which the box `min..max` is more than `d`
+/// cells thick.
+fn faces_thicker_than(min: [u16; 3], max: [u16; 3], d: u16) -> u8 {
     (0..3)
-        .filter(|&a| max[a] - min[a] > 1)
+        .filter(|&a| max[a] - min[a] > d)
         .fold(0u8, |acc, a| acc | (0b11 << (2 * a)))
 }
 
-/// Per active cell of `h`: the faces in `finer_faces` of the box `core` that it
+/// Per active cell of `h`: the faces in `faces` of the box `core` that it
 /// touches (bits as [`open_faces`]); empty when there are none.
 ///
-/// These are a chunk's faces toward finer chunks. The seam across a level face
+/// For a chunk's faces toward finer chunks: every leaf touching one is a cell. The seam across a level face
 /// is contoured from both chunks' trees, each cut on its own, and each chunk's
 /// fold guard stands the cells across at its own cell size (`kdtree::fold`).
 /// For the finer chunk that is close to the coarse cells there; for the coarser
@@ -320,8 +355,8 @@ fn thick_faces(min: [u16; 3], max: [u16; 3]) -> u8 {
 /// `defects` example's level worlds (8 scenes at 32 and 64): flipped seam
 /// faces 5,482 -> 1,839 for 4% more triangles; the same rule on the finer side
 /// as well gave 1,907 for 11% more, on the finer side alone 5,635.
-fn finer_cells(h: &Hermite, (lo, hi): ([u16; 3], [u16; 3]), finer_faces: u8) -> Vec<u8> {
-    if finer_faces == 0 {
+fn face_cells(h: &Hermite, (lo, hi): ([u16; 3], [u16; 3]), faces: u8) -> Vec<u8> {
+    if faces == 0 {
         return Vec::new();
     }
     h.cells
@@ -330,7 +365,7 @@ fn finer_cells(h: &Hermite, (lo, hi): ([u16; 3], [u16; 3]), finer_faces: u8) -> 
             (0..3).fold(0u8, |acc, a| {
                 acc | ((c.coord[a] == lo[a]) as u8) << (2 * a)
                     | ((c.coord[a] + 1 == hi[a]) as u8) << (2 * a + 1)
-            }) & finer_faces
+            }) & faces
         })
         .collect()
 }
@@ -384,21 +419,23 @@ fn trace_straight(ctx: &Ctx, ids: &[u32], open: u8) -> bool {
     true
 }
 
-/// The split of a node thick across open faces `thick`: the one-cell slab along
-/// the first of them, and the QEFs of the two halves.
+/// The split of a node more than `depth` cells thick across faces `thick`: the
+/// slab `depth` cells thick along the first of them, and the QEFs of the two
+/// halves.
 fn slab_split(
     ctx: &Ctx,
     ids: &[u32],
     min: [u16; 3],
     max: [u16; 3],
     thick: u8,
+    depth: u16,
 ) -> (usize, u16, Qef, Qef) {
     let f = thick.trailing_zeros() as usize;
     let axis = f / 2;
     let split = if f.is_multiple_of(2) {
-        min[axis] + 1
+        min[axis] + depth
     } else {
-        max[axis] - 1
+        max[axis] - depth
     };
     let (mut left, mut right) = (Qef::ZERO, Qef::ZERO);
     for &id in ids {
