@@ -362,6 +362,26 @@ fn merges_add_no_flipped_face_to_seams_between_levels() {
     }
 }
 
+/// The level-0 cell of [`sixteen_cell_world`].
+const SIXTEEN_CELL: f32 = 2.0 / 128.0;
+
+/// The `defects` example's level worlds: 8^3 level-0 chunks of 16 cells over
+/// `[-1, 1]^3` laid out at levels 0 to 2 by `layout`, built with every chunk
+/// at its cells (threshold -1).
+fn sixteen_cell_world(field: &dyn Field, layout: Layout) -> World {
+    let mut w = World::new(
+        Vec3::splat(-1.0),
+        SIXTEEN_CELL,
+        16,
+        layout,
+        -1.0,
+        Settings::default(),
+    )
+    .unwrap();
+    w.build_all(field).unwrap();
+    w
+}
+
 /// A finer chunk's cells across a face toward a coarser chunk are placed
 /// against the coarse cells the seam takes there (`hermite::vertex`, with the
 /// coarse corners fixed), not against its own halo: with every chunk at its
@@ -373,7 +393,7 @@ fn merges_add_no_flipped_face_to_seams_between_levels() {
 #[test]
 fn cells_beside_a_coarser_chunk_are_placed_against_its_cells() {
     let (lo, hi) = (glam::IVec3::ZERO, glam::IVec3::splat(8));
-    let cell = 2.0 / 128.0;
+    let cell = SIXTEEN_CELL;
     let mut one = IndexedMesh::default();
     for (name, layout) in [
         ("box", Layout::random(lo, hi, 2, 0.3, 3)),
@@ -385,16 +405,7 @@ fn cells_beside_a_coarser_chunk_are_placed_against_its_cells() {
     ] {
         let scene = scenes::scene(name).unwrap();
         let field = &*scene.field;
-        let mut w = World::new(
-            Vec3::splat(-1.0),
-            cell,
-            16,
-            layout.unwrap(),
-            -1.0,
-            Settings::default(),
-        )
-        .unwrap();
-        w.build_all(field).unwrap();
+        let w = sixteen_cell_world(field, layout.unwrap());
         let (mut seams, mut triangles, mut flipped) = (0, 0, 0);
         for k in w.chunks() {
             for s in w.owned_seams(&k) {
@@ -432,7 +443,7 @@ fn cells_beside_a_coarser_chunk_are_placed_against_its_cells() {
 #[test]
 fn merged_leaves_on_both_sides_of_a_face_within_one_level_keep_their_seam() {
     let (lo, hi) = (glam::IVec3::ZERO, glam::IVec3::splat(8));
-    let cell = 2.0 / 128.0;
+    let cell = SIXTEEN_CELL;
     let mut one = IndexedMesh::default();
     for (name, layout, thresholds, most_flipped, most_overlapping) in [
         (
@@ -452,16 +463,7 @@ fn merged_leaves_on_both_sides_of_a_face_within_one_level_keep_their_seam() {
     ] {
         let scene = scenes::scene(name).unwrap();
         let field = &*scene.field;
-        let mut w = World::new(
-            Vec3::splat(-1.0),
-            cell,
-            16,
-            layout.unwrap(),
-            -1.0,
-            Settings::default(),
-        )
-        .unwrap();
-        w.build_all(field).unwrap();
+        let mut w = sixteen_cell_world(field, layout.unwrap());
         let within: Vec<Seam> = w
             .chunks()
             .iter()
