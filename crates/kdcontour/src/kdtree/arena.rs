@@ -83,12 +83,14 @@ pub(super) struct Ctx<'a> {
     /// Whether a cell of the tree has a bit in `open` (a chunk's core never does:
     /// its halo holds the grid's faces).
     pub(super) any_open: bool,
-    /// Per active cell, in a chunk with faces toward finer chunks
-    /// ([`crate::pipeline::Cells::Core`]): those it touches; empty otherwise.
-    pub(super) finer: Vec<u8>,
-    /// Per active cell, in a chunk with faces toward chunks of its own level
-    /// ([`crate::pipeline::Cells::Core`]): those it touches; empty otherwise.
-    pub(super) same: Vec<u8>,
+    /// Per active cell, in a chunk ([`crate::pipeline::Cells::Core`]): the
+    /// faces toward finer chunks and toward chunks of its own level that it
+    /// touches; empty when the chunk has neither.
+    pub(super) touched: Vec<u8>,
+    /// The chunk's faces toward finer chunks (bits as `touched`).
+    pub(super) finer_faces: u8,
+    /// The chunk's faces toward chunks of its own level (bits as `touched`).
+    pub(super) same_faces: u8,
     /// Per active cell, when materials are tracked: what it is to a material
     /// border (module `borders`); empty otherwise.
     pub(super) kinds: Vec<super::borders::Kinds>,

@@ -95,8 +95,9 @@ pub(crate) fn build_in(
         tables,
         any_open: ids.iter().any(|&i| open[i as usize] != 0),
         open,
-        finer: face_cells(h, (core_min, core_max), finer_faces),
-        same: face_cells(h, (core_min, core_max), same_faces),
+        touched: face_cells(h, (core_min, core_max), finer_faces | same_faces),
+        finer_faces,
+        same_faces,
         kinds: borders::cell_kinds(h),
     };
     // At most about three nodes and components per active cell (measured: 2.3 on
@@ -169,25 +170,22 @@ fn build_node(
     };
     let thick = thick_open_faces(ctx, open, min, max);
     let straight = thick != 0 || open == 0 || trace_straight(ctx, ids, open);
-    // Faces toward finer chunks that this node's cells touch: it may not be a
-    // leaf, and where it is more than a cell thick across one, the k-d tree
-    // splits the one-cell slab along it off first.
-    let finer = if ctx.finer.is_empty() {
+    // The chunk faces this node's cells touch.
+    let touched = if ctx.touched.is_empty() {
         0
     } else {
         ids.iter()
-            .fold(0u8, |acc, &id| acc | ctx.finer[id as usize])
+            .fold(0u8, |acc, &id| acc | ctx.touched[id as usize])
     };
+    // Faces toward finer chunks: it may not be a leaf, and where it is more
+    // than a cell thick across one, the k-d tree splits the one-cell slab along
+    // it off first.
+    let finer = touched & ctx.finer_faces;
     let thick = thick | (finer & thick_faces(min, max));
-    // Faces toward chunks of this level that this node's cells touch, where it
-    // reaches more than `SAME_SLAB` cells in: it may not be a leaf, and the k-d
-    // tree splits that slab off first.
-    let same = if ctx.same.is_empty() {
-        0
-    } else {
-        ids.iter().fold(0u8, |acc, &id| acc | ctx.same[id as usize])
-    };
-    let deep = same & faces_thicker_than(min, max, SAME_SLAB);
+    // Faces toward chunks of this level, where it reaches more than
+    // `SAME_SLAB` cells in: it may not be a leaf, and the k-d tree splits that
+    // slab off first.
+    let deep = touched & ctx.same_faces & faces_thicker_than(min, max, SAME_SLAB);
     // A small node whose cells leave part of its box empty cuts the largest
     // empty slab off first (module `split`).
     let empty = (ctx.partition == Partition::KdTree && thick == 0 && ids.len() <= EMPTY_CUT_CELLS)
@@ -345,8 +343,8 @@ fn faces_thicker_than(min: [u16; 3], max: [u16; 3], d: u16) -> u8 {
 /// Per active cell of `h`: the faces in `faces` of the box `core` that it
 /// touches (bits as [`open_faces`]); empty when there are none.
 ///
-/// For a chunk's faces toward finer chunks: every leaf touching one is a cell. The seam across a level face
-/// is contoured from both chunks' trees, each cut on its own, and each chunk's
+/// On a chunk's faces toward finer chunks every leaf is a cell. The seam
+/// across a level face is contoured from both chunks' trees, each cut on its own, and each chunk's
 /// fold guard stands the cells across at its own cell size (`kdtree::fold`).
 /// For the finer chunk that is close to the coarse cells there; for the coarser
 /// one it is not (the finer chunk's cells are half its size), so its merged
