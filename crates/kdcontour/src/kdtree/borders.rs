@@ -209,6 +209,26 @@ pub(super) fn of_cells(ctx: &Ctx, ids: &[u32]) -> Option<Kinds> {
 /// left more flipped faces on level seams (3,429 against 3,268).
 const SPLIT_SHARE: usize = 2;
 
+/// The most runs of alike slabs (module docs of [`split`]) along an axis for
+/// [`split`] to cut between them whatever their share of the cells: a border
+/// with the strips beside it and the free regions on both sides.
+const MAX_RUNS: usize = 5;
+
+/// How many runs of equal slabs (kind and material) the non-empty `slabs`
+/// make, in order.
+fn runs(slabs: &[Kinds]) -> usize {
+    let mut count = 0;
+    let mut last: Option<(u8, u16, u16)> = None;
+    for k in slabs.iter().filter(|k| k.cells != 0) {
+        let key = (k.flags, k.beside, k.free);
+        if last != Some(key) {
+            count += 1;
+            last = Some(key);
+        }
+    }
+    count
+}
+
 /// For a node whose cells are not alike (a border, the cells beside it and
 /// free cells together, or two materials): the plane that puts the most cells
 /// into halves whose cells are alike (at least half of them, [`SPLIT_SHARE`]), so
@@ -260,6 +280,12 @@ pub(super) fn split(
             for s in (0..len[axis] - 1).rev() {
                 right[s] = right[s].add(right[s + 1]);
             }
+            // Bands: every slab along the axis alike on its own, in few runs
+            // of one kind and material (a border running across the axis: the
+            // strips beside it, its own cells, the free regions). Splits
+            // between runs then take at most as many levels as there are runs,
+            // so any of them may be taken.
+            let banded = slab.iter().all(|k| k.cells == 0 || k.alike()) && runs(slab) <= MAX_RUNS;
             let mut left = Kinds::NONE;
             for s in 1..len[axis] {
                 left = left.add(slab[s - 1]);
@@ -269,7 +295,8 @@ pub(super) fn split(
                 }
                 let alike = left.alike() as usize * left.cells as usize
                     + r.alike() as usize * r.cells as usize;
-                if alike * SPLIT_SHARE >= n && best.is_none_or(|b| alike > b.0) {
+                let enough = alike * SPLIT_SHARE >= n || (banded && alike > 0);
+                if enough && best.is_none_or(|b| alike > b.0) {
                     best = Some((alike, axis, min[axis] + s as u16));
                 }
             }
