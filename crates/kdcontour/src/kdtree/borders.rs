@@ -102,14 +102,53 @@ fn moves_a_border(ctx: &Ctx, arena: &Arena, node: &KdNode, ids: &[u32]) -> bool 
 
 /// What the cells of a region hold, for [`split`]: which kinds of cell
 /// (`THROUGH`, `BESIDE`, `FREE` bits), the materials of the cells beside a
-/// border and of the free cells, each combined ([`material::combine`];
-/// [`material::UNSET`] when none), and how many cells.
+/// border and of the free cells (each the range of their codes, [`Span`]),
+/// and how many cells.
 #[derive(Clone, Copy)]
 pub(super) struct Kinds {
     flags: u8,
-    beside: u16,
-    free: u16,
+    beside: Span,
+    free: Span,
     cells: u32,
+}
+
+/// The lowest and highest of a set of pure material codes: one material when
+/// they are equal, none when the lowest is above the highest. Combining two
+/// is a minimum and a maximum, with no branch ([`material::combine`] reads the
+/// same for pure codes).
+#[derive(Clone, Copy, PartialEq, Eq)]
+struct Span {
+    lo: u16,
+    hi: u16,
+}
+
+impl Span {
+    const EMPTY: Span = Span {
+        lo: u16::MAX,
+        hi: 0,
+    };
+
+    /// Of one cell's code ([`material::UNSET`]: none).
+    fn of(code: u16) -> Span {
+        if code == material::UNSET {
+            Span::EMPTY
+        } else {
+            Span { lo: code, hi: code }
+        }
+    }
+
+    #[inline]
+    fn add(self, o: Span) -> Span {
+        Span {
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+        }
+    }
+
+    /// At most one material.
+    fn single(self) -> bool {
+        self.lo >= self.hi
+    }
 }
 
 /// A cell a border passes through.
@@ -122,8 +161,8 @@ const FREE: u8 = 4;
 impl Kinds {
     const NONE: Kinds = Kinds {
         flags: 0,
-        beside: material::UNSET,
-        free: material::UNSET,
+        beside: Span::EMPTY,
+        free: Span::EMPTY,
         cells: 0,
     };
 
@@ -138,20 +177,21 @@ impl Kinds {
             k.flags = THROUGH;
         } else if h.cell_border[id as usize] != Vec3::ZERO {
             k.flags = BESIDE;
-            k.beside = code;
+            k.beside = Span::of(code);
         } else {
             k.flags = FREE;
-            k.free = code;
+            k.free = Span::of(code);
         }
         k
     }
 
+    /// The cells of both regions.
     #[inline]
     fn add(self, o: Kinds) -> Kinds {
         Kinds {
             flags: self.flags | o.flags,
-            beside: material::combine(self.beside, o.beside),
-            free: material::combine(self.free, o.free),
+            beside: self.beside.add(o.beside),
+            free: self.free.add(o.free),
             cells: self.cells + o.cells,
         }
     }
@@ -165,9 +205,7 @@ impl Kinds {
     /// treated alike (cells on a border, or beside one, merge along it; free
     /// cells of one material merge freely).
     fn alike(&self) -> bool {
-        self.flags.count_ones() == 1
-            && self.beside != material::MIXED
-            && self.free != material::MIXED
+        self.flags.count_ones() == 1 && self.beside.single() && self.free.single()
     }
 }
 
@@ -218,7 +256,7 @@ const MAX_RUNS: usize = 5;
 /// make, in order.
 fn runs(slabs: &[Kinds]) -> usize {
     let mut count = 0;
-    let mut last: Option<(u8, u16, u16)> = None;
+    let mut last: Option<(u8, Span, Span)> = None;
     for k in slabs.iter().filter(|k| k.cells != 0) {
         let key = (k.flags, k.beside, k.free);
         if last != Some(key) {
