@@ -46,6 +46,13 @@ impl<'a> Facing<'a> {
         }
     }
 
+    /// The same test with the smallest area a triangle may have `factor` times
+    /// larger.
+    pub fn with_area_margin(mut self, factor: f64) -> Self {
+        self.min_twice_area *= factor;
+        self
+    }
+
     /// Whether the polygon of `corners` (three or four distinct vertices in the
     /// contouring's order, grid units, each with its normal) faces `facing` (its
     /// edge from the inside corner to the outside one), and each of its triangles

@@ -91,6 +91,8 @@ pub(super) struct Ctx<'a> {
     pub(super) finer_faces: u8,
     /// The chunk's faces toward chunks of its own level (bits as `touched`).
     pub(super) same_faces: u8,
+    /// The low corner of the cells the tree is built over (a chunk's core).
+    pub(super) core_min: [u16; 3],
     /// Per active cell, when materials are tracked: what it is to a material
     /// border (module `borders`); empty otherwise.
     pub(super) kinds: Vec<super::borders::Kinds>,
