@@ -22,7 +22,7 @@ use crate::state::VolumeState;
 use crate::stats::MainThreadClock;
 use crate::volume::{to_volume, KdChunk, LodCamera};
 use crate::{KdContourStep, KdContourSystems};
-use avian3d::prelude::{Collider, CollisionLayers, RigidBody};
+use avian3d::prelude::{Collider, ColliderAabb, ColliderOf, CollisionLayers, RigidBody, Sleeping};
 use bevy::ecs::system::EntityCommands;
 use bevy::prelude::*;
 use kdcontour::IndexedMesh;
@@ -93,12 +93,38 @@ impl MeshExtra for ColliderExtra {
     fn build(&self, mesh: Option<&IndexedMesh>) -> ExtraPayload {
         match mesh.and_then(|m| trimesh::build(m, self.layers)) {
             Some((collider, layers)) => Box::new(move |chunk: &mut EntityCommands| {
+                chunk.queue(wake_bodies_on);
                 chunk.insert((RigidBody::Static, collider, layers));
             }),
             None => Box::new(|chunk: &mut EntityCommands| {
+                chunk.queue(wake_bodies_on);
                 chunk.try_remove::<(Collider, RigidBody, CollisionLayers)>();
             }),
         }
+    }
+}
+
+/// Wakes the sleeping bodies whose colliders touch the chunk's collider as it
+/// is (its world bounds, grown by a hundredth), before the collider is
+/// replaced or removed: a body asleep on the ground stays put when the ground
+/// under it changes (avian wakes bodies on their own changes, not on a static
+/// collider's), so without this a ball resting where a pit is dug would hang
+/// over it.
+fn wake_bodies_on(chunk: EntityWorldMut) {
+    let Some(aabb) = chunk.get::<ColliderAabb>().copied() else {
+        return;
+    };
+    let aabb = aabb.grow(0.01 * (aabb.max - aabb.min).max_element() * Vec3::ONE);
+    let world = chunk.into_world_mut();
+    let mut colliders = world.query::<(&ColliderAabb, &ColliderOf)>();
+    let mut sleeping = world.query_filtered::<(), With<Sleeping>>();
+    let bodies: Vec<Entity> = colliders
+        .iter(world)
+        .filter(|(a, of)| a.intersects(&aabb) && sleeping.get(world, of.body).is_ok())
+        .map(|(_, of)| of.body)
+        .collect();
+    for body in bodies {
+        world.entity_mut(body).remove::<Sleeping>();
     }
 }
 
