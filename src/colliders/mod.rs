@@ -111,7 +111,12 @@ impl MeshExtra for ColliderExtra {
 /// collider's), so without this a ball resting where a pit is dug would hang
 /// over it.
 fn wake_bodies_on(chunk: EntityWorldMut) {
-    let Some(aabb) = chunk.get::<ColliderAabb>().copied() else {
+    // A collider not yet in the physics step has no bounds (an empty box).
+    let Some(aabb) = chunk
+        .get::<ColliderAabb>()
+        .copied()
+        .filter(|a| a.min.is_finite() && a.max.is_finite() && a.min.cmple(a.max).all())
+    else {
         return;
     };
     let aabb = aabb.grow(0.01 * (aabb.max - aabb.min).max_element() * Vec3::ONE);
