@@ -55,11 +55,12 @@ use rayon::prelude::*;
 /// How many times the smallest area `validate` allows a triangle (per cell)
 /// the guard asks of a merged leaf's polygons. Checked without a cell size,
 /// `validate` measures areas against the mesh's mean edge, and an adaptive
-/// mesh's edges are longer than a cell: a seam triangle along a box's crease
-/// with 3.9e-5 cells² passed the guard and was zero-area in a level world
-/// of `tests/levels.rs`. Four times (a mean edge of two cells) refuses it;
-/// the `defects` example's tables keep their counts (30 more triangles in 2.2
-/// million), and of the one-grid meshes only `box` at 48 changes.
+/// mesh's edges are longer than a cell: with four-cell tiles along faces
+/// within one level (`build::SAME_TILE`), a seam triangle along a box's crease
+/// of 3.9e-5 cells² passed the guard and was zero-area in a level world of
+/// `tests/levels.rs`. Four times (a mean edge of two cells) refuses it; the
+/// `defects` example's tables keep their counts, and of the one-grid meshes
+/// only `box` at 48 changes.
 const AREA_MARGIN: f64 = 4.0;
 
 /// Quadrants around an edge, as in `contour.rs` (counter-clockwise about +d).
