@@ -1,6 +1,7 @@
 //! A navmesh tile's cost beside its chunk's extraction, side by side in one
 //! run: the tile is built in the chunk's meshing task, after the extraction,
-//! so the ratio is what navmesh adds to a re-mesh.
+//! so the ratio is what navmesh adds to a re-mesh. Then path queries over
+//! the linked tiles, corner to corner.
 //!
 //! `cargo bench -p kdcontour-nav --bench tiles`
 
@@ -80,6 +81,38 @@ fn tiles(c: &mut Criterion) {
                 nav.insert(*k, t.clone());
             }
             black_box(nav.link_count())
+        })
+    });
+    // Paths between polygons far apart: the centres of the polygons first
+    // and last by x + z, the second and the second last, and so on.
+    let mut nav = NavMesh::new(settings.clone()).unwrap();
+    for (k, t) in &tiles {
+        nav.insert(*k, t.clone());
+    }
+    let mut centres: Vec<Vec3> = tiles
+        .iter()
+        .flat_map(|(_, t)| t.polys.iter().map(|p| p.center))
+        .collect();
+    centres.sort_by(|a, b| (a.x + a.z).total_cmp(&(b.x + b.z)));
+    let pairs: Vec<(Vec3, Vec3)> = (0..16)
+        .map(|i| (centres[i * 4], centres[centres.len() - 1 - i * 4]))
+        .collect();
+    let found: Vec<f32> = pairs
+        .iter()
+        .filter_map(|(s, g)| nav.find_path(*s, *g).ok())
+        .map(|p| p.length())
+        .collect();
+    println!(
+        "{} of {} paths found, {:.1} units long on average",
+        found.len(),
+        pairs.len(),
+        found.iter().sum::<f32>() / found.len().max(1) as f32
+    );
+    g.bench_function("paths_16", |b| {
+        b.iter(|| {
+            for (s, g) in &pairs {
+                black_box(nav.find_path(*s, *g).map(|p| p.points.len()).ok());
+            }
         })
     });
     g.finish();

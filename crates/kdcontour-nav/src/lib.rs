@@ -15,9 +15,11 @@
 //!   that run along it within [`NavSettings::link_tolerance`] across and
 //!   [`NavSettings::max_climb`] in height; the overlap is the portal.
 //! - **Paths** ([`NavMesh::find_path`]): A* over polygons, then the funnel
-//!   (string pulling) through the portals. A start or goal that is not on a
-//!   walkable floor (inside rock, in the air, on a too steep slope) and a goal
-//!   that cannot be reached are errors that say so ([`PathError`]).
+//!   (string pulling) through the portals, then the corners pulled straight
+//!   where a walk over the floor from one to a later one meets no wall. A
+//!   start or goal that is not on a walkable floor (inside rock, in the air,
+//!   on a too steep slope) and a goal that cannot be reached are errors that
+//!   say so ([`PathError`]).
 //!
 //! What it does not do: headroom is checked against the surface within a
 //! chunk and its aprons only (a ceiling in the chunk above, lower than the

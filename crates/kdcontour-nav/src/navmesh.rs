@@ -2,7 +2,7 @@
 //! path queries over the whole.
 
 use crate::links::{self, Link};
-use crate::path::{funnel, oriented};
+use crate::path::{funnel_passed, oriented};
 use crate::settings::{NavError, NavSettings};
 use crate::tile::NavTile;
 use glam::Vec3;
@@ -11,6 +11,8 @@ use std::cmp::Ordering;
 use std::collections::{BinaryHeap, HashMap};
 use std::sync::Arc;
 use thiserror::Error;
+
+mod visible;
 
 /// A tile and the links that leave it.
 struct Entry {
@@ -290,11 +292,11 @@ impl NavMesh {
             let inside = self.tiles[&a.0].tile.polys[a.1 as usize].center;
             portals.push(oriented(inside, portal));
         }
-        let corners = funnel(s, g, &portals);
         let nodes: Vec<Node> = corridor.iter().map(|(n, _)| *n).collect();
+        let (corners, nodes) = self.straighten(&funnel_passed(s, g, &portals), &nodes);
         Ok(Path {
             points: self.on_floor(&corners, &nodes),
-            polygons: corridor.len(),
+            polygons: nodes.len(),
         })
     }
 

@@ -27,12 +27,27 @@ pub(crate) fn oriented(from: Vec3, portal: [Vec3; 2]) -> (Vec3, Vec3) {
 
 /// The shortest path from `start` to `goal` through `portals` (each (left,
 /// right), in order).
+#[cfg(test)]
 pub(crate) fn funnel(start: Vec3, goal: Vec3, portals: &[(Vec3, Vec3)]) -> Vec<Vec3> {
+    funnel_passed(start, goal, portals)
+        .into_iter()
+        .map(|(p, _)| p)
+        .collect()
+}
+
+/// [`funnel`]'s corners, each with how many portals the path has passed where
+/// it stands on it (0 at the start; a corner on portal `k` has passed `k + 1`;
+/// the goal has passed them all).
+pub(crate) fn funnel_passed(
+    start: Vec3,
+    goal: Vec3,
+    portals: &[(Vec3, Vec3)],
+) -> Vec<(Vec3, usize)> {
     let mut all = Vec::with_capacity(portals.len() + 2);
     all.push((start, start));
     all.extend_from_slice(portals);
     all.push((goal, goal));
-    let mut points = vec![start];
+    let mut points = vec![(start, 0)];
     let (mut apex, mut left, mut right) = (start, start, start);
     let (mut left_i, mut right_i) = (0, 0);
     let mut i = 1;
@@ -47,7 +62,7 @@ pub(crate) fn funnel(start: Vec3, goal: Vec3, portals: &[(Vec3, Vec3)]) -> Vec<V
                 // The right crosses the left: the left corner is on the path.
                 apex = left;
                 let apex_i = left_i;
-                points.push(apex);
+                points.push((apex, apex_i));
                 (left, right) = (apex, apex);
                 (left_i, right_i) = (apex_i, apex_i);
                 i = apex_i + 1;
@@ -62,7 +77,7 @@ pub(crate) fn funnel(start: Vec3, goal: Vec3, portals: &[(Vec3, Vec3)]) -> Vec<V
             } else {
                 apex = right;
                 let apex_i = right_i;
-                points.push(apex);
+                points.push((apex, apex_i));
                 (left, right) = (apex, apex);
                 (left_i, right_i) = (apex_i, apex_i);
                 i = apex_i + 1;
@@ -73,9 +88,11 @@ pub(crate) fn funnel(start: Vec3, goal: Vec3, portals: &[(Vec3, Vec3)]) -> Vec<V
     }
     if points
         .last()
-        .is_none_or(|p| !same(*p, goal) || p.y != goal.y)
+        .is_none_or(|(p, _)| !same(*p, goal) || p.y != goal.y)
     {
-        points.push(goal);
+        points.push((goal, portals.len()));
+    } else if let Some(last) = points.last_mut() {
+        last.1 = portals.len();
     }
     points
 }
