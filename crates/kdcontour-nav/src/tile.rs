@@ -21,6 +21,17 @@ const MAX_SIMPLIFICATION_ERROR: f32 = 1.3;
 /// ground at the most (`cargo bench -p kdcontour-nav --bench tiles`, the
 /// `paths_follow_rolling_ground_across_chunk_seams` test).
 const DETAIL_SAMPLE_CELLS: f32 = 12.0;
+/// Outline edges between the chunk's floor and its aprons are cut every
+/// `radius * 8` cells, as walls are: else the floor's edge along a chunk's
+/// face is one long outline edge, and Recast cuts the floor there into long
+/// thin polygons, which its detail mesh samples inside only when they are two
+/// sample distances wide. One such polygon, 12 units long on rolling ground
+/// (chunks of 16 cells cut into four-cell tiles along their faces), put a
+/// path point 0.6 units above a valley (`paths_cross_level_boundaries`,
+/// `paths_follow_rolling_ground_across_chunk_seams`). It costs 4% more time
+/// per tile and 24% more polygons (`cargo bench -p kdcontour-nav --bench
+/// tiles`).
+const OUTLINES: BuildContoursFlags = BuildContoursFlags::TESSELLATE_AREA_EDGES;
 /// Polygons have at most this many vertices (Recast's default, Detour's limit).
 const MAX_POLY_VERTS: u16 = 6;
 /// Regions smaller than this many cells are dropped; small, because a chunk
@@ -152,11 +163,7 @@ impl NavTile {
         chf.build_distance_field();
         chf.build_regions(border, MIN_REGION_AREA, MERGE_REGION_AREA)
             .map_err(|e| recast("regions")(&e))?;
-        let mut contours = chf.build_contours(
-            MAX_SIMPLIFICATION_ERROR,
-            radius * 8,
-            BuildContoursFlags::default(),
-        );
+        let mut contours = chf.build_contours(MAX_SIMPLIFICATION_ERROR, radius * 8, OUTLINES);
         let poly = match contours.clone().into_polygon_mesh(MAX_POLY_VERTS) {
             Ok(p) => p,
             Err(_) => {

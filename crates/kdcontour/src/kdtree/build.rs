@@ -327,17 +327,12 @@ fn build_node(
 /// face tile it alike, and the seam polygons between their leaves join leaves
 /// of one tile, not a leaf running along the face to ones cut elsewhere (what
 /// [`SAME_SLAB`] left: flat faces folding in their plane). On the `defects`
-/// example's level worlds (8 analytic and CSG scenes, 16-cell chunks): flipped
-/// faces on faces within one level 90 -> 62, overlapping 112 -> 45, crossing
-/// 47 -> 27, for 1.0% more triangles. Tiles of 4 left 9 such flips and 2
-/// overlapping faces for 3.5% more triangles (the box and anisotropic +9.5%),
-/// but a navigation test's path on rolling ground then ran over a long thin
-/// Recast polygon along a chunk's face, too thin for its detail mesh to be
-/// sampled inside, which missed a valley by 1.25 units (sampling every 8
-/// cells fixed it for 45% more time per tile; cutting outlines along the
-/// aprons for 4%, but a path then bowed past where a test digs its pit):
-/// left until the navmesh tiles cope.
-const SAME_TILE: u16 = 8;
+/// example's level worlds (8 analytic and CSG scenes, 16-cell chunks), from
+/// the slab alone to tiles of 8 to tiles of 4: flipped faces on faces within
+/// one level 90 -> 62 -> 9, overlapping 112 -> 45 -> 2, for 1.0% and then
+/// 2.4% more triangles (anisotropic +6.5%, box +5.8%, `disk_pole` +5.0%; the
+/// plugin's terrain chunk +0.1%). Tiles of 2 left 4 such flips for 9.3%.
+const SAME_TILE: u16 = 4;
 
 /// For a node touching the faces `faces` toward chunks of its own level: the
 /// axis along one of those faces on which it crosses a tile boundary
