@@ -173,8 +173,8 @@ fn paths_follow_rolling_ground_across_chunk_seams() {
         );
         assert!(len >= xz_distance(s, g) - 1e-3 && len <= straight * 1.25);
         // Open ground all the way: the path runs along the straight line, as
-        // long as the ground under it (A*'s corridor alone bowed up to 2.8%
-        // X
+        // long as the ground under it (through A*'s corridor alone, up to 4.5%
+        // longer: 84.87 against 81.20 on the first).
         assert!(
             len <= over_ground * 1.01,
             "{len} long where the ground under the straight line is {over_ground}"
