@@ -20,6 +20,8 @@
 //!   start or goal that is not on a walkable floor (inside rock, in the air,
 //!   on a too steep slope) and a goal that cannot be reached are errors that
 //!   say so ([`PathError`]).
+//! - **Straight lines** ([`NavMesh::is_open_between`]): whether the floor is
+//!   open along a line seen from above, walked polygon to polygon.
 //!
 //! What it does not do: headroom is checked against the surface within a
 //! chunk and its aprons only (a ceiling in the chunk above, lower than the

@@ -300,6 +300,32 @@ impl NavMesh {
         })
     }
 
+    /// Whether the floor is open along the straight line from `from` to `to`
+    /// seen from above: an agent walking it meets no wall, hole, ledge or
+    /// slope too steep (the polygons it crosses are linked one to the next),
+    /// and it ends on the floor `to` is on. Both points are taken to their
+    /// floor as [`NavMesh::find_path`] takes them; what `find_path` would say
+    /// of a point off the floor is the error.
+    pub fn is_open_between(&self, from: Vec3, to: Vec3) -> Result<bool, PathError> {
+        for (which, point) in [("start", from), ("goal", to)] {
+            if !point.is_finite() {
+                return Err(PathError::NotFinite { which, point });
+            }
+        }
+        let reach = self.settings.agent_height;
+        let (start, a) = self.locate(from).ok_or(PathError::OffMesh {
+            which: "start",
+            point: from,
+            reach,
+        })?;
+        let (_, b) = self.locate(to).ok_or(PathError::OffMesh {
+            which: "goal",
+            point: to,
+            reach,
+        })?;
+        Ok(self.walk(start, a, b).is_some())
+    }
+
     /// The corners with points in between (a cell height's worth of floor
     /// apart at most: every `FLOOR_STEP`), each at the height of the floor
     /// under it (the corridor's polygon there, else another polygon of the

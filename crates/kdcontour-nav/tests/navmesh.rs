@@ -205,6 +205,8 @@ fn a_pit_dug_between_two_points_is_walked_around_and_only_its_tiles_rebuilt() {
     let before = nav.find_path(s, g).unwrap();
     let c = Vec3::new(1.0, rolling(1.0, 3.0), 3.0);
     assert!(closest_approach(&before.points, c) < 3.0);
+    // Open ground between the two: the straight line is walkable.
+    assert_eq!(nav.is_open_between(s, g), Ok(true));
     // A pit of radius 7 with steep walls, dug where the path ran.
     let pit = Brush::sphere(c, 7.0, BrushOp::Subtract);
     let changed = edit(&mut w, &mut field, pit, (c, 7.0));
@@ -235,6 +237,22 @@ fn a_pit_dug_between_two_points_is_walked_around_and_only_its_tiles_rebuilt() {
         after.points.len()
     );
     assert!(after.length() > before.length() + 2.0);
+    // The pit is in the way of the straight line now, not of the path's
+    // legs; and a point in the pit's rock has no floor.
+    assert_eq!(nav.is_open_between(s, g), Ok(false));
+    for w in after.points.windows(2) {
+        assert_eq!(
+            nav.is_open_between(w[0], w[1]),
+            Ok(true),
+            "{} to {}",
+            w[0],
+            w[1]
+        );
+    }
+    assert!(matches!(
+        nav.is_open_between(s, c - Vec3::Y * 3.0),
+        Err(PathError::OffMesh { which: "goal", .. })
+    ));
     // Around the rim: the pit's walls are too steep, so the path keeps clear
     // of the hole (radius 7 at ground level, less the slope of its lip).
     let clear = closest_approach(&after.points, c);
