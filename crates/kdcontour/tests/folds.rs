@@ -508,6 +508,50 @@ fn merged_leaves_on_both_sides_of_a_face_within_one_level_keep_their_seam() {
     }
 }
 
+/// Whole level worlds of the flat-faced and CSG scenes (16-cell chunks,
+/// levels 0 to 2, the `defects` example's two random layouts and its camera
+/// rings) are clean at each threshold everywhere and, but for `csg_mix`, at
+/// five rounds of random thresholds per chunk: closed, manifold, no flipped,
+/// zero-area, crossing or overlapping face anywhere, inside the chunks or on
+/// their seams. With faces within one level cut into tiles of eight cells the
+/// box had a flipped and 4 overlapping faces at every threshold but -1 in
+/// both random layouts, and anisotropic a flipped face in its camera layout.
+/// `csg_mix` with random thresholds per chunk is not clean yet: in 3 of 10
+/// such rounds of the second random layout, a flipped face and up to 2
+/// crossing ones.
+#[test]
+fn flat_faced_and_csg_level_worlds_are_clean_at_every_threshold() {
+    let (lo, hi) = (glam::IVec3::ZERO, glam::IVec3::splat(8));
+    let mut rng = Lcg(41);
+    for (name, random_rounds) in [
+        ("box", 5),
+        ("anisotropic", 5),
+        ("disk_pole", 5),
+        ("csg_mix", 0),
+    ] {
+        let scene = scenes::scene(name).unwrap();
+        let field = &*scene.field;
+        for (layout_name, layout) in [
+            ("random:3", Layout::random(lo, hi, 2, 0.3, 3)),
+            ("random:7", Layout::random(lo, hi, 2, 0.5, 7)),
+            ("camera", Layout::around(lo, hi, 2, Vec3::splat(7.6), 0.9)),
+        ] {
+            let mut w = sixteen_cell_world(field, layout.unwrap());
+            for round in 0..THRESHOLDS.len() + random_rounds {
+                for k in w.chunks() {
+                    let e = THRESHOLDS
+                        .get(round)
+                        .copied()
+                        .unwrap_or(THRESHOLDS[rng.next() % THRESHOLDS.len()]);
+                    w.set_threshold(&k, e);
+                }
+                let r = report(&w.extract_all(), field, SIXTEEN_CELL);
+                assert_clean(&r, &format!("{name} {layout_name} round {round}"));
+            }
+        }
+    }
+}
+
 #[test]
 fn a_scan_has_no_zero_area_or_overlapping_face() {
     // The Shepp-Logan phantom at 64 voxels and its skull's iso value: thin shells
