@@ -267,22 +267,7 @@ impl NavMesh {
     /// The shortest path (over the polygons, then pulled tight) from `start`
     /// to `goal`, or why there is none.
     pub fn find_path(&self, start: Vec3, goal: Vec3) -> Result<Path, PathError> {
-        for (which, point) in [("start", start), ("goal", goal)] {
-            if !point.is_finite() {
-                return Err(PathError::NotFinite { which, point });
-            }
-        }
-        let reach = self.settings.agent_height;
-        let (from, s) = self.locate(start).ok_or(PathError::OffMesh {
-            which: "start",
-            point: start,
-            reach,
-        })?;
-        let (to, g) = self.locate(goal).ok_or(PathError::OffMesh {
-            which: "goal",
-            point: goal,
-            reach,
-        })?;
+        let [(from, s), (to, g)] = self.ends(start, goal)?;
         let corridor = self.search(from, s, to, g)?;
         let mut portals = Vec::with_capacity(corridor.len());
         for w in corridor.windows(2) {
@@ -307,23 +292,25 @@ impl NavMesh {
     /// floor as [`NavMesh::find_path`] takes them; what `find_path` would say
     /// of a point off the floor is the error.
     pub fn is_open_between(&self, from: Vec3, to: Vec3) -> Result<bool, PathError> {
-        for (which, point) in [("start", from), ("goal", to)] {
+        let [(start, a), (_, b)] = self.ends(from, to)?;
+        Ok(self.walk(start, a, b).is_some())
+    }
+
+    /// The polygons and floor points of a query's start and goal
+    /// ([`NavMesh::locate`]), or why one has none.
+    fn ends(&self, start: Vec3, goal: Vec3) -> Result<[(Node, Vec3); 2], PathError> {
+        let reach = self.settings.agent_height;
+        let end = |which: &'static str, point: Vec3| {
             if !point.is_finite() {
                 return Err(PathError::NotFinite { which, point });
             }
-        }
-        let reach = self.settings.agent_height;
-        let (start, a) = self.locate(from).ok_or(PathError::OffMesh {
-            which: "start",
-            point: from,
-            reach,
-        })?;
-        let (_, b) = self.locate(to).ok_or(PathError::OffMesh {
-            which: "goal",
-            point: to,
-            reach,
-        })?;
-        Ok(self.walk(start, a, b).is_some())
+            self.locate(point).ok_or(PathError::OffMesh {
+                which,
+                point,
+                reach,
+            })
+        };
+        Ok([end("start", start)?, end("goal", goal)?])
     }
 
     /// The corners with points in between (a cell height's worth of floor
