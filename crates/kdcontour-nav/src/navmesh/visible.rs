@@ -95,8 +95,8 @@ impl NavMesh {
         corridor: &[Node],
     ) -> (Vec<Vec3>, Vec<Node>) {
         let last = corridor.len() - 1;
-        // A corner that has passed `k` portals is on the polygon the `k`th
-        // enters, and on the portal into it (the one before, too).
+        // A corner that has passed `k` portals stands on the polygon the
+        // `k`th portal enters (on that portal's outline).
         let on = |k: usize| corridor[k.min(last)];
         let mut points = vec![corners[0].0];
         let mut under = vec![corridor[0]];
