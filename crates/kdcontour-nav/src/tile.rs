@@ -26,9 +26,9 @@ const DETAIL_SAMPLE_CELLS: f32 = 12.0;
 /// face is one long outline edge, and Recast cuts the floor there into long
 /// thin polygons, which its detail mesh samples inside only when they are two
 /// sample distances wide. One such polygon, 12 units long on rolling ground
-/// (chunks of 16 cells cut into four-cell tiles along their faces), put a
-/// path point 0.6 units above a valley (`paths_cross_level_boundaries`,
-/// `paths_follow_rolling_ground_across_chunk_seams`). It costs 4% more time
+/// (chunks of 16 cells cut into four-cell tiles along their faces), missed a
+/// valley by 1.25 units, and a path over such polygons ran more than 0.6
+/// units above the ground (`paths_cross_level_boundaries`). It costs 4% more time
 /// per tile and 24% more polygons (`cargo bench -p kdcontour-nav --bench
 /// tiles`).
 const OUTLINES: BuildContoursFlags = BuildContoursFlags::TESSELLATE_AREA_EDGES;
