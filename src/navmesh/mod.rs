@@ -239,6 +239,19 @@ impl VolumeNavMesh {
         self.navmesh.find_path(start, goal)
     }
 
+    /// Whether the floor is open along the straight line from `start` to
+    /// `goal` in world space, for a volume placed by `volume`: an agent can
+    /// walk straight there ([`NavMesh::is_open_between`]).
+    pub fn is_open_between_world(
+        &self,
+        volume: &GlobalTransform,
+        start: Vec3,
+        goal: Vec3,
+    ) -> Result<bool, PathError> {
+        let local = to_volume(volume);
+        self.navmesh.is_open_between(local(start), local(goal))
+    }
+
     /// The path from `start` to `goal` in world space, for a volume placed by
     /// `volume`: its points in world space.
     pub fn find_path_world(

@@ -93,6 +93,11 @@ fn a_path_goes_around_a_pit_dug_across_it_and_only_the_pits_tiles_are_rebuilt() 
     let before = navmesh(&app, volume).find_path(s, g).unwrap();
     let c = Vec3::new(48.0, height(48.0, 50.0), 50.0);
     assert!(closest_approach(&before.points, c) < 3.0);
+    let placed = GlobalTransform::IDENTITY;
+    assert_eq!(
+        navmesh(&app, volume).is_open_between_world(&placed, s, g),
+        Ok(true)
+    );
     let old = tiles(&app, volume);
 
     // A pit of radius 7 across the path.
@@ -153,6 +158,11 @@ fn a_path_goes_around_a_pit_dug_across_it_and_only_the_pits_tiles_are_rebuilt() 
     assert!(after.length() > before.length() + 2.0);
     let clear = closest_approach(&after.points, c);
     assert!(clear > 5.0, "the path passes {clear} from the pit's centre");
+    // The pit stands in the straight line's way now.
+    assert_eq!(
+        navmesh(&app, volume).is_open_between_world(&placed, s, g),
+        Ok(false)
+    );
 
     // A goal in the rock under the ground has no path, and says so.
     let rock = Vec3::new(60.0, height(60.0, 40.0) - 6.0, 40.0);
