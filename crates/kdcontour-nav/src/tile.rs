@@ -89,6 +89,11 @@ impl NavTile {
     /// empty mesh gives an empty tile.
     pub fn build(mesh: &IndexedMesh, settings: &NavSettings) -> Result<NavTile, NavError> {
         settings.check()?;
+        unpanicked(|| Self::build_checked(mesh, settings))
+    }
+
+    /// [`NavTile::build`] with its settings checked.
+    fn build_checked(mesh: &IndexedMesh, settings: &NavSettings) -> Result<NavTile, NavError> {
         let cs = settings.cell_size;
         let ch = cs * 0.5;
         let mut tile = NavTile {
@@ -126,7 +131,7 @@ impl NavTile {
         let climb = (settings.max_climb / ch).floor() as u16;
         let height = (settings.agent_height / ch).ceil() as u16;
         let apron = (border as f32 + 1.0) * cs;
-        let trimesh = with_aprons(mesh, apron, settings.max_slope_degrees.to_radians());
+        let mut trimesh = with_aprons(mesh, apron, settings.max_slope_degrees.to_radians());
         let (y0, y1) = (
             ((lo.y - apron) / ch).floor() - 1.0,
             ((hi.y + apron + settings.agent_height) / ch).ceil() + 1.0,
@@ -149,6 +154,7 @@ impl NavTile {
         }
         .build()
         .map_err(|e| recast("heightfield")(&e))?;
+        off_cell_lines(&mut trimesh.vertices, aabb.min, cs);
         hf.rasterize_triangles(&trimesh, climb)
             .map_err(|e| recast("rasterization")(&e))?;
         hf.filter_low_hanging_walkable_obstacles(climb);
@@ -484,6 +490,46 @@ fn with_aprons(mesh: &IndexedMesh, apron: f32, max_slope: f32) -> TriMesh {
     }
 }
 
+/// `build`'s result, or a panic inside it (a bug of the Recast port, as the
+/// one [`off_cell_lines`] steps around) as an error: the tile is left out and
+/// says why, and the chunk's mesh, built in the same task, is not lost.
+fn unpanicked(build: impl FnOnce() -> Result<NavTile, NavError>) -> Result<NavTile, NavError> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(build)).unwrap_or_else(|p| {
+        let message = p
+            .downcast_ref::<String>()
+            .cloned()
+            .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+            .unwrap_or_else(|| "no message".into());
+        Err(NavError::Recast {
+            step: "tile build",
+            message: format!("Recast panicked ({message}); the tile is left out"),
+        })
+    })
+}
+
+/// How far (in cells) a vertex on a line of Recast's grid is moved off it.
+const OFF_LINE: f32 = 1e-3;
+
+/// Moves every vertex that lies exactly on a line between Recast's cells
+/// (along x or z, as its rasterizer computes the lines from the grid's
+/// corner `min` and cell `cs`) a thousandth of a cell off it. Recast clips
+/// each triangle to rows and then cells, and a vertex exactly on a cell's
+/// corner can give a clipped polygon an eighth corner where its buffer holds
+/// seven (recastnavigation issue 687; rerecast 0.4 then panics with an index
+/// out of bounds in `divide_poly`). Chunk meshes have such vertices: a merged
+/// leaf's vertex clamped to its box sits on whole cell coordinates, which the
+/// default 0.2 grid can meet exactly.
+fn off_cell_lines(vertices: &mut [Vec3A], min: Vec3, cs: f32) {
+    for v in vertices {
+        for (a, o) in [(0, min.x), (2, min.z)] {
+            let k = ((v[a] - o) / cs).round();
+            if o + k * cs == v[a] {
+                v[a] += OFF_LINE * cs;
+            }
+        }
+    }
+}
+
 /// A contour set's grid with no contours in it.
 trait CloneEmpty {
     fn clone_empty(&self) -> ContourSet;
@@ -500,6 +546,71 @@ impl CloneEmpty for ContourSet {
             height: self.height,
             border_size: self.border_size,
             max_error: self.max_error,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A mesh of `triangles` (no shared vertices), normals up.
+    fn mesh(triangles: &[[Vec3; 3]]) -> IndexedMesh {
+        let mut m = IndexedMesh::default();
+        for t in triangles {
+            for p in t {
+                m.indices.push(m.positions.len() as u32);
+                m.positions.push(*p);
+                m.normals.push(Vec3::Y);
+            }
+        }
+        m
+    }
+
+    #[test]
+    fn a_vertex_on_a_corner_of_recasts_cells_builds_its_tile() {
+        // Three triangles of a demo chunk's mesh (a tile of the plugin's
+        // frame bench): the first has a vertex at (187, _, -13), a corner of
+        // Recast's 0.2 grid as the tile's bounds place it, and Recast's
+        // clipping gave a cell polygon an eighth corner (rerecast panicked).
+        let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+        let m = mesh(&[
+            [
+                v(186.44202, 0.55559623, -13.090258),
+                v(187.45444, 1.5585871, -13.44091),
+                v(187.0, 1.6876631, -13.0),
+            ],
+            [
+                v(163.40254, 0.038849473, -18.614481),
+                v(163.16344, 0.06176853, -17.152697),
+                v(164.62935, 0.025589347, -17.382376),
+            ],
+            [
+                v(171.49939, 0.6162509, -30.998703),
+                v(173.00044, 0.5149462, -30.505974),
+                v(172.99995, 0.81753254, -31.498955),
+            ],
+        ]);
+        let tile = NavTile::build(&m, &NavSettings::default()).expect("a tile");
+        assert_eq!(tile.dropped_outlines, 0);
+    }
+
+    #[test]
+    fn a_panic_inside_recast_is_an_error_that_says_so() {
+        let prev = std::panic::take_hook();
+        std::panic::set_hook(Box::new(|_| {}));
+        let r = unpanicked(|| panic!("index out of bounds: the len is 7 but the index is 7"));
+        std::panic::set_hook(prev);
+        match r {
+            Err(e @ NavError::Recast { .. }) => {
+                let text = e.to_string();
+                assert!(
+                    text.contains("Recast panicked (index out of bounds")
+                        && text.contains("left out"),
+                    "{text}"
+                );
+            }
+            other => panic!("{other:?}"),
         }
     }
 }
