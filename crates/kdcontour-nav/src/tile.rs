@@ -523,7 +523,8 @@ fn off_cell_lines(vertices: &mut [Vec3A], min: Vec3, cs: f32) {
     for v in vertices {
         for (a, o) in [(0, min.x), (2, min.z)] {
             let k = ((v[a] - o) / cs).round();
-            if o + k * cs == v[a] {
+            // rerecast cuts at a cell's start plus a cell: `(o + (k - 1) cs) + cs`.
+            if o + k * cs == v[a] || (o + (k - 1.0) * cs) + cs == v[a] {
                 v[a] += OFF_LINE * cs;
             }
         }
