@@ -194,10 +194,7 @@ mod tests {
             }
         }
         let id = |x: u32, z: u32| -> Option<u32> {
-            (x < w && z < h && !holes.contains(&(x, z))).then(|| {
-                let before = holes.iter().filter(|&&(hx, hz)| hz * w + hx < z * w + x);
-                z * w + x - before.count() as u32
-            })
+            (x < w && z < h && !holes.contains(&(x, z))).then(|| square(w, holes, x, z))
         };
         let corner = |x: u32, z: u32| z * (w + 1) + x;
         for z in 0..h {
@@ -229,6 +226,13 @@ mod tests {
         t
     }
 
+    /// The polygon of the square at column `x`, row `z` of [`squares`]`(w, _,
+    /// holes)`: squares are numbered row by row, holes left out.
+    fn square(w: u32, holes: &[(u32, u32)], x: u32, z: u32) -> u32 {
+        let before = holes.iter().filter(|&&(hx, hz)| hz * w + hx < z * w + x);
+        z * w + x - before.count() as u32
+    }
+
     fn mesh(tile: NavTile) -> (NavMesh, ChunkKey) {
         let mut nav = NavMesh::new(crate::NavSettings::default()).unwrap();
         let key = ChunkKey::new(0, glam::IVec3::ZERO);
@@ -240,7 +244,7 @@ mod tests {
     fn a_walk_crosses_open_floor_and_stops_at_a_hole() {
         // 6 x 3 squares; the square at column 3, row 1 is a hole.
         let (nav, key) = mesh(squares(6, 3, &[(3, 1)]));
-        let poly = |x: u32, z: u32| (key, z * 6 + x - u32::from(z * 6 + x > 9));
+        let poly = |x: u32, z: u32| (key, square(6, &[(3, 1)], x, z));
         let p = |x: f32, z: f32| Vec3::new(x, 0.0, z);
         // Along the first row: every square of it, in order.
         let w = nav.walk(poly(0, 0), p(0.5, 0.5), p(5.5, 0.5));
@@ -294,13 +298,7 @@ mod tests {
     fn corners_around_a_wall_are_kept() {
         // A wall: column 2 is a hole in rows 0 and 1.
         let (nav, key) = mesh(squares(5, 3, &[(2, 0), (2, 1)]));
-        let id = |x: u32, z: u32| {
-            let holes_before = [(2u32, 0u32), (2, 1)]
-                .iter()
-                .filter(|&&(hx, hz)| hz * 5 + hx < z * 5 + x)
-                .count() as u32;
-            (key, z * 5 + x - holes_before)
-        };
+        let id = |x: u32, z: u32| (key, square(5, &[(2, 0), (2, 1)], x, z));
         let p = |x: f32, z: f32| Vec3::new(x, 0.0, z);
         let corridor = [
             id(1, 0),
