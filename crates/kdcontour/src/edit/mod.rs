@@ -319,6 +319,15 @@ impl Field for EditedField {
         }
     }
 
+    /// The base field's, while there are no brushes.
+    fn value_and_gradient(&self, p: Vec3) -> Option<(f32, Vec3)> {
+        if self.edits.is_empty() {
+            self.base.value_and_gradient(p)
+        } else {
+            None
+        }
+    }
+
     /// The base field's own gradient where no brush is active (analytic where the
     /// base has one), the active brush's where one is.
     fn gradient(&self, p: Vec3) -> Vec3 {

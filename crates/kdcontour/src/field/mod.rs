@@ -56,6 +56,16 @@ pub trait Field: Send + Sync {
         central_difference(|q| self.value(q), p, gradient_step(p))
     }
 
+    /// [`Field::value`] and [`Field::gradient`] at `p`, both bit for bit, from
+    /// one evaluation that costs little more than the value alone (an analytic
+    /// gradient computed alongside it), or `None` when the field has no such
+    /// evaluation (the default). The Hermite stage's root search uses it so the
+    /// evaluation that finds a crossing gives its normal too.
+    fn value_and_gradient(&self, p: Vec3) -> Option<(f32, Vec3)> {
+        let _ = p;
+        None
+    }
+
     /// Sound bounds `(lo, hi)` of the value over the box `[lo, hi]`: every point
     /// of the box has `lo <= value <= hi` (up to f32 rounding of the value itself,
     /// a few ulps), or `None` when the field cannot tell. Chunk builds skip
@@ -186,6 +196,9 @@ macro_rules! forward_field {
             fn gradient(&self, p: Vec3) -> Vec3 {
                 (**self).gradient(p)
             }
+            fn value_and_gradient(&self, p: Vec3) -> Option<(f32, Vec3)> {
+                (**self).value_and_gradient(p)
+            }
             fn sample_grid(&self, grid: &Grid, z_range: std::ops::Range<u32>, out: &mut [f32]) {
                 (**self).sample_grid(grid, z_range, out)
             }
@@ -240,6 +253,10 @@ impl Field for IsoShift {
     }
     fn gradient(&self, p: Vec3) -> Vec3 {
         self.inner.gradient(p)
+    }
+    fn value_and_gradient(&self, p: Vec3) -> Option<(f32, Vec3)> {
+        let (v, g) = self.inner.value_and_gradient(p)?;
+        Some((v - self.iso, g))
     }
     fn sample_grid(&self, grid: &Grid, z_range: std::ops::Range<u32>, out: &mut [f32]) {
         self.inner.sample_grid(grid, z_range, out);
@@ -364,6 +381,61 @@ pub fn raycast(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Where a field gives [`Field::value_and_gradient`], both parts are
+    /// [`Field::value`]'s and [`Field::gradient`]'s bit for bit (the root
+    /// search takes its crossings' normals from it): every built-in scene, the
+    /// plugin's terrain chunk, a field shifted to another level and an edited
+    /// field with no brushes yet, at points on and off their surfaces.
+    #[test]
+    fn value_and_gradient_is_value_and_gradient_bit_for_bit() {
+        let (chunk, _) = crate::scenes::terrain_chunk(16);
+        let mut fields: Vec<(String, std::sync::Arc<dyn Field>)> = crate::scenes::SCENES
+            .iter()
+            .map(|name| {
+                let field: std::sync::Arc<dyn Field> =
+                    crate::scenes::scene(name).unwrap().field.into();
+                (name.to_string(), field)
+            })
+            .collect();
+        fields.push(("terrain chunk".into(), std::sync::Arc::new(chunk)));
+        let terrain = fields.iter().find(|f| f.0 == "terrain").unwrap().1.clone();
+        fields.push((
+            "iso shift".into(),
+            std::sync::Arc::new(IsoShift {
+                inner: terrain.clone(),
+                iso: 0.1,
+            }),
+        ));
+        fields.push((
+            "edited".into(),
+            std::sync::Arc::new(crate::edit::EditedField::new(terrain)),
+        ));
+        let mut joint = 0;
+        for (name, field) in &fields {
+            for i in 0..2000u32 {
+                // Points over the scenes' box and a little beyond, and a chunk's
+                // 16 cells.
+                let h =
+                    |k: u32| ((i.wrapping_mul(2654435761) ^ (k * 40503)) % 10007) as f32 / 10007.0;
+                let p = Vec3::new(h(1), h(2), h(3)) * 2.4 - Vec3::splat(1.2);
+                let p = if name == "terrain chunk" { p * 8.0 } else { p };
+                let Some((v, g)) = field.value_and_gradient(p) else {
+                    continue;
+                };
+                joint += 1;
+                assert_eq!(v.to_bits(), field.value(p).to_bits(), "{name} value at {p}");
+                let g0 = field.gradient(p);
+                assert_eq!(
+                    g.to_array().map(f32::to_bits),
+                    g0.to_array().map(f32::to_bits),
+                    "{name} gradient at {p}"
+                );
+            }
+        }
+        // The CSG scenes, the height field and the wrappers around them give it.
+        assert!(joint >= 2000 * (fields.len() - 3), "{joint}");
+    }
 
     #[test]
     fn raycast_hits_a_sphere_where_it_should() {

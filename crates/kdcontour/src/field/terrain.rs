@@ -316,6 +316,11 @@ impl Field for Heightfield {
         Vec3::new((-amp * dx) as f32, 1.0, (-amp * dz) as f32)
     }
 
+    /// One evaluation of the noise with its gradient ([`Heightfield::value_gradient`]).
+    fn value_and_gradient(&self, p: Vec3) -> Option<(f32, Vec3)> {
+        Some(self.value_gradient(p))
+    }
+
     /// `y - height` with the height within `base +- amplitude` (`FBM_MAX`, proven in the source).
     fn bound(&self, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
         let (base, amp) = (self.params.base as f64, self.params.amplitude as f64);

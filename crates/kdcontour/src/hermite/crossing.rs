@@ -132,14 +132,21 @@ pub(super) fn crossings(
                             });
                         }
                     }
-                    let (t, forced) = find_root(field, grid, p0, dir, v0, v1, iterations)?;
+                    let Root {
+                        t,
+                        forced,
+                        gradient,
+                    } = find_root(field, grid, p0, dir, v0, v1, iterations)?;
                     let point = p0 + dir * t;
                     let wp = grid.to_world(point);
-                    let (grad, blend) = if borders {
-                        let (g, m) = field.gradient_and_material(wp);
-                        (g, Some(m))
-                    } else {
-                        (field.gradient(wp), None)
+                    let (grad, blend) = match (gradient, borders) {
+                        (Some(g), true) => (g, Some(field.material_with_gradient(wp, g))),
+                        (Some(g), false) => (g, None),
+                        (None, true) => {
+                            let (g, m) = field.gradient_and_material(wp);
+                            (g, Some(m))
+                        }
+                        (None, false) => (field.gradient(wp), None),
                     };
                     let outward = if v1 >= 0.0 { dir } else { -dir };
                     let normal = if grad.is_finite() && grad.length_squared() > 1e-20 {
@@ -189,6 +196,17 @@ pub(crate) const FORCED_CROSSING_T: f32 = 0.1;
 /// of flat faces: the box's adaptive meshes grew 12%).
 pub(crate) const END_T: f32 = 0.01;
 
+/// What [`find_root`] finds on an edge.
+struct Root {
+    /// Where on the edge the crossing is.
+    t: f32,
+    /// The field has no root on the edge (see [`FORCED_CROSSING_T`]).
+    forced: bool,
+    /// [`Field::gradient`] at the crossing, when the search's last evaluation
+    /// was there and gave it ([`Field::value_and_gradient`]).
+    gradient: Option<Vec3>,
+}
+
 /// The crossing along `p0 + t * dir`, `t` in `[0, 1]`, between samples `v0` and `v1`
 /// of opposite sign: linear interpolation refined by up to `iterations` steps of the
 /// Illinois false-position method on the field itself.
@@ -201,6 +219,11 @@ pub(crate) const END_T: f32 = 0.01;
 /// contradicts, the crossing goes [`FORCED_CROSSING_T`] of the edge away from it,
 /// and the second value says so. A crossing from a sample on the surface stays
 /// [`END_T`] of the edge from it.
+///
+/// A field with [`Field::value_and_gradient`] gives the gradient with each
+/// value; where the search ends on a point it evaluated (the crossing of a
+/// field within tolerance of zero there, as most are), that is the normal's
+/// gradient, and no second evaluation is needed.
 fn find_root(
     field: &dyn Field,
     grid: &Grid,
@@ -209,7 +232,7 @@ fn find_root(
     v0: f32,
     v1: f32,
     iterations: u32,
-) -> Result<(f32, bool)> {
+) -> Result<Root> {
     let mut b = Bracket::new(v0, v1);
     let mut t = (v0 / (v0 - v1)).clamp(0.0, 1.0);
     // Converged when the field is within 1e-5 cells of zero (distance units for
@@ -218,9 +241,17 @@ fn find_root(
     // Whether an evaluation had end 0's sign or end 1's, and whether one was
     // within `tol` of zero (a root for sure).
     let (mut seen0, mut seen1, mut on_root) = (false, false, false);
+    // The last point evaluated, and the gradient there when the field gave it.
+    let mut last: Option<(f32, Vec3)> = None;
     for _ in 0..iterations {
         let wp = grid.to_world(p0 + dir * t);
-        let ft = field.value(wp);
+        let ft = match field.value_and_gradient(wp) {
+            Some((ft, g)) => {
+                last = Some((t, g));
+                ft
+            }
+            None => field.value(wp),
+        };
         if !ft.is_finite() {
             return Err(Error::NonFiniteSample {
                 position: wp,
@@ -252,7 +283,11 @@ fn find_root(
         let (end, sample) = if seen1 { (0.0, v0) } else { (1.0, v1) };
         let field_there = field.value(grid.to_world(p0 + dir * end));
         if field_there.is_finite() && (field_there >= 0.0) != (sample >= 0.0) {
-            return Ok(((end - FORCED_CROSSING_T).abs(), true));
+            return Ok(Root {
+                t: (end - FORCED_CROSSING_T).abs(),
+                forced: true,
+                gradient: None,
+            });
         }
     }
     // A root at a sample that is itself on the surface moves into the edge.
@@ -262,5 +297,10 @@ fn find_root(
     if v1.abs() <= tol {
         t = t.min(1.0 - END_T);
     }
-    Ok((t, false))
+    let gradient = last.and_then(|(at, g)| (at.to_bits() == t.to_bits()).then_some(g));
+    Ok(Root {
+        t,
+        forced: false,
+        gradient,
+    })
 }
