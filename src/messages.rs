@@ -119,7 +119,9 @@ pub struct LodChanged {
     pub threshold: f32,
 }
 
-/// A chunk's build failed (a field error or a panic inside the task).
+/// A chunk's build or extraction failed (a field error or a panic inside the
+/// task), or one of its extras (a collider, a navmesh tile) could not be built
+/// and the chunk is shown without it.
 #[derive(Message, Clone, Debug)]
 pub struct ChunkFailed {
     /// The volume entity.

@@ -90,6 +90,10 @@ struct ColliderExtra {
 }
 
 impl MeshExtra for ColliderExtra {
+    fn name(&self) -> &'static str {
+        "collider"
+    }
+
     fn build(&self, mesh: Option<&IndexedMesh>) -> ExtraPayload {
         match mesh.and_then(|m| trimesh::build(m, self.layers)) {
             Some((collider, layers)) => Box::new(move |chunk: &mut EntityCommands| {

@@ -286,6 +286,10 @@ struct Built {
 }
 
 impl MeshExtra for TileExtra {
+    fn name(&self) -> &'static str {
+        "navmesh tile"
+    }
+
     fn build(&self, mesh: Option<&IndexedMesh>) -> ExtraPayload {
         let t = Instant::now();
         let built = Built {

@@ -5,9 +5,11 @@
 //! [`KdContourSystems::Schedule`]), and collects them with `check_ready` (in
 //! [`KdContourSystems::Poll`]): a result from an older field or threshold is
 //! dropped, and a panic inside a build or an extraction is reported as
-//! [`ChunkFailed`] (a failed extraction leaves the chunk's mesh as it was).
+//! [`ChunkFailed`] (a failed extraction leaves the chunk's mesh as it was; a
+//! panic in one of its extras, a collider or a navmesh tile, is reported and
+//! the mesh lands without that extra).
 
-use crate::mesh::ReadyMesh;
+use crate::mesh::{build_extras, ReadyMesh};
 use crate::messages::ChunkFailed;
 use crate::settings::KdContourSettings;
 use crate::state::VolumeState;
@@ -123,13 +125,11 @@ fn start(state: &mut VolumeState, workers: &ChunkWorkers, work: Work, c: ChunkKe
                     // mesh; the drawn one has its vertices split along hard
                     // material borders, so a border is drawn along the crease,
                     // not as a sawtooth across it.
-                    let extra = extras
-                        .into_iter()
-                        .map(|(b, wanted)| b.build(wanted.then_some(&mesh)))
-                        .collect();
+                    let (extra, failures) = build_extras(extras, &mesh);
                     kdcontour::material::split_borders(&mut mesh, &field, cell);
                     let mut ready = ReadyMesh::new(threshold, &mesh);
                     ready.extra = extra;
+                    ready.extra_failures = failures;
                     ready
                 }))
                 .map_err(|p| format!("the extraction panicked: {}", panic_message(&*p)));
@@ -165,7 +165,7 @@ fn start(state: &mut VolumeState, workers: &ChunkWorkers, work: Work, c: ChunkKe
 }
 
 /// The text of a caught panic.
-fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
+pub(crate) fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
     p.downcast_ref::<&str>()
         .map(|s| s.to_string())
         .or_else(|| p.downcast_ref::<String>().cloned())
@@ -293,7 +293,14 @@ fn poll_tasks(
                     continue;
                 }
                 match out.mesh {
-                    Ok(mesh) => slot.work.ready = Some(mesh),
+                    Ok(mut mesh) => {
+                        // The mesh lands without the extras that panicked.
+                        for error in std::mem::take(&mut mesh.extra_failures) {
+                            let chunk = Some(slot.entity());
+                            report_failure(entity, *c, chunk, error, &mut chunks, &mut failed);
+                        }
+                        slot.work.ready = Some(mesh);
+                    }
                     // The chunk keeps the mesh it shows.
                     Err(error) => {
                         let chunk = Some(slot.entity());

@@ -257,7 +257,8 @@ pub enum ChunkStatus {
     Meshed,
     /// Has no surface.
     Empty,
-    /// Its last build failed (the message says why); an edit retries it.
+    /// Its last build or extraction failed, or an extra of its mesh could not
+    /// be built (the message says why); an edit retries it.
     Failed(String),
 }
 
