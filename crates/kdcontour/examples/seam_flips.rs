@@ -15,13 +15,14 @@ use kdcontour::{scenes, IndexedMesh, Settings};
 
 fn main() {
     let mut args = std::env::args().skip(1);
-    let usage = "usage: seam_flips SCENE random:3|random:7|camera THRESHOLD [between|same]";
+    let usage = "usage: seam_flips SCENE random:3|random:7|camera THRESHOLD [between|same|inside]";
     let name = args.next().expect(usage);
     let layout_name = args.next().expect(usage);
     let threshold: f32 = args.next().expect(usage).parse().expect(usage);
-    let same_level = match args.next().as_deref() {
-        None | Some("between") => false,
-        Some("same") => true,
+    let (same_level, inside) = match args.next().as_deref() {
+        None | Some("between") => (false, false),
+        Some("same") => (true, false),
+        Some("inside") => (false, true),
         Some(_) => panic!("{usage}"),
     };
     let scene = scenes::scene(&name).unwrap_or_else(|e| panic!("{e}"));
@@ -46,6 +47,33 @@ fn main() {
     };
     let (mut seams, mut flipped) = (0, 0);
     let mut one = IndexedMesh::default();
+    if inside {
+        for k in w.chunks() {
+            w.extract_interior(&k, &mut one);
+            let mut first = true;
+            for t in one.indices.chunks(3) {
+                let p = [0, 1, 2].map(|i| one.positions[t[i] as usize]);
+                let n = (p[1] - p[0]).cross(p[2] - p[0]);
+                let g = field.gradient((p[0] + p[1] + p[2]) / 3.0);
+                if n.dot(g) >= 0.0 {
+                    continue;
+                }
+                flipped += 1;
+                if first {
+                    println!("chunk {k:?}: {} faces", one.triangle_count());
+                    first = false;
+                }
+                println!(
+                    "  {:?} normal {:?} gradient {:?}",
+                    p.map(in_cells),
+                    n.normalize_or_zero(),
+                    g.normalize_or_zero()
+                );
+            }
+        }
+        println!("{name} {layout_name} at {threshold}: {flipped} flipped faces inside chunks");
+        return;
+    }
     for k in w.chunks() {
         for s in w.owned_seams(&k) {
             let Seam::Face { low, high, axis } = s else {
