@@ -1,6 +1,7 @@
 //! Streaming: [`StreamingPlugin`] loads the chunks of unbounded volumes
 //! ([`crate::KdVolume::streaming`]) around the [`LodCamera`], nearest first, and
-//! drops those left behind; lays horizon volumes ([`crate::KdVolume::horizon`])
+//! drops those left behind (their trees built for the thresholds the LOD asks
+//! within the view distance, [`max_threshold`]); lays horizon volumes ([`crate::KdVolume::horizon`])
 //! out in chunk levels around the camera ([`crate::horizon`]); and for every
 //! volume points scheduling at the camera (in [`KdContourSystems::Lod`](crate::KdContourSystems::Lod), before
 //! thresholds are set).
@@ -79,6 +80,12 @@ fn stream_chunks(
             }
             VolumeExtent::Bounded { .. } => continue,
         };
+        // Trees built from now on serve the thresholds the LOD can ask of a
+        // loaded chunk (they may change at run time).
+        let limit = max_threshold(&settings, view_distance, state.world().chunk_side());
+        if state.world().settings.max_threshold.to_bits() != limit.to_bits() {
+            state.world_mut().settings.max_threshold = limit;
+        }
         let key = (
             state.world().chunk_at(local),
             view_distance.to_bits() as u64,
@@ -104,4 +111,32 @@ fn stream_chunks(
             }
         }
     }
+}
+
+/// Chunk widths past the view distance a streaming volume's chunk can be from
+/// the camera while loaded: one of unloading slack, and up to the diagonal of
+/// the chunk the camera is in, which it may cross before the chunks are
+/// streamed again (it re-streams when it enters another chunk).
+const LOADED_SLACK: f32 = 3.0;
+
+/// The largest threshold a streaming volume with `view_distance` and chunks of
+/// side `chunk_side` asks of a loaded chunk: the LOD curve at the view distance
+/// plus [`LOADED_SLACK`] chunk widths, or the default threshold when that is
+/// higher or the camera does not drive thresholds. Its trees are built with it
+/// as [`kdcontour::Settings::max_threshold`]: the fold guard checks no merge a
+/// cut never reaches (a chunk asked for more is cut at it, finer).
+pub(crate) fn max_threshold(
+    settings: &KdContourSettings,
+    view_distance: f32,
+    chunk_side: f32,
+) -> f32 {
+    let curve = if settings.lod.enabled {
+        settings
+            .lod
+            .curve()
+            .threshold(view_distance + LOADED_SLACK * chunk_side)
+    } else {
+        f32::NEG_INFINITY
+    };
+    curve.max(settings.default_threshold)
 }

@@ -367,6 +367,15 @@ fn streaming_terrain_loads_around_the_camera_and_drops_what_it_leaves() {
             .iter(app.world())
             .count();
         assert_eq!(n, have.len(), "one entity per loaded chunk");
+        // Trees are built for the thresholds the LOD asks within the view (and
+        // no further), and show what trees with no limit show.
+        let state = app.world().get::<VolumeState>(v).unwrap();
+        let limit = state.world().settings.max_threshold;
+        assert!(limit.is_finite(), "the trees' limit is {limit}");
+        for k in state.world().chunks() {
+            let e = state.world().threshold(&k);
+            assert!(e <= limit, "chunk {k:?} is cut at {e}, above {limit}");
+        }
         assert_matches_fresh(app, v, &*field);
         have
     };
