@@ -62,6 +62,11 @@ pub(super) struct Node {
 /// sphere proves they cannot change the result.
 pub struct Csg {
     pub(super) root: Node,
+    /// Whether [`Node::eval`] costs about what [`Node::value`] does: no 3-D
+    /// noise terrain in the tree (its gradient is a second evaluation of its
+    /// noises with their derivatives, and the value skips noises the
+    /// gradient does not).
+    pub(super) cheap_gradient: bool,
 }
 
 impl Csg {
@@ -77,9 +82,27 @@ impl CsgNode {
     /// Checks and compiles the tree into an evaluable field.
     pub fn compile(&self) -> Result<Csg, Error> {
         self.check("root")?;
+        let root = compile(self);
         Ok(Csg {
-            root: compile(self),
+            cheap_gradient: !has_density(&root.op),
+            root,
         })
+    }
+}
+
+/// Whether `op`'s subtree holds a 3-D noise terrain.
+fn has_density(op: &Op) -> bool {
+    match op {
+        Op::Density(_) => true,
+        Op::Prim(..) | Op::Heightfield(_) => false,
+        Op::Union(ch)
+        | Op::Intersection(ch)
+        | Op::SmoothUnion(_, ch)
+        | Op::SmoothIntersection(_, ch) => ch.iter().any(|c| has_density(&c.op)),
+        Op::Difference(a, b) | Op::SmoothDifference(_, a, b) => {
+            has_density(&a.op) || has_density(&b.op)
+        }
+        Op::Transform { child, .. } | Op::Material(_, child) => has_density(&child.op),
     }
 }
 
