@@ -316,7 +316,7 @@ impl Field for Heightfield {
         Vec3::new((-amp * dx) as f32, 1.0, (-amp * dz) as f32)
     }
 
-    /// One evaluation of the noise with its gradient ([`Heightfield::value_gradient`]).
+    /// One evaluation of the noise with its gradient.
     fn value_and_gradient(&self, p: Vec3) -> Option<(f32, Vec3)> {
         Some(self.value_gradient(p))
     }

@@ -252,9 +252,10 @@ impl Field for Csg {
     fn gradient(&self, p: Vec3) -> Vec3 {
         self.root.eval(p).1
     }
-    /// [`Node::eval`] (its value is [`Node::value`]'s bit for bit: the same
-    /// primitives, the same choices of child, the same bound skipping), where
-    /// it costs about a value: not with 3-D noise terrain in the tree.
+    /// The tree's value with its analytic gradient (the value bit for bit
+    /// [`Field::value`]'s: the same primitives, the same choices of child, the
+    /// same bound skipping), where it costs about a value: not with 3-D noise
+    /// terrain in the tree.
     fn value_and_gradient(&self, p: Vec3) -> Option<(f32, Vec3)> {
         self.cheap_gradient.then(|| self.root.eval(p))
     }
