@@ -4,7 +4,7 @@
 //! leaf: the mesh a k-d tree gives at a threshold below zero, without building
 //! the tree ([`crate::pipeline::full`]). It shares no code with the tree's
 //! contouring and serves as its oracle there. Vertices and normals are stored in
-//! the tree's packed form ([`Comp::pack`]), so both give bitwise the same
+//! the tree's packed form ([`crate::comp::Comp::pack`]), so both give bitwise the same
 //! positions.
 //!
 //! The work follows the surface: the quads are the Hermite data's crossings,
@@ -13,7 +13,6 @@
 //! come out in the same order on any number of threads.
 
 use crate::cell::{edge_index, CellTables, NO_COMP};
-use crate::comp::Comp;
 use crate::hermite::{CellLookup, Hermite};
 use crate::mesh::{quad_split, IndexedMesh};
 use glam::Vec3;
@@ -90,8 +89,7 @@ pub fn uniform_dmc(h: &Hermite) -> IndexedMesh {
                 .filter(|&p| used[p as usize])
                 .map(move |p| {
                     let i = p as usize;
-                    let packed =
-                        Comp::pack(h.patch_vertex[i], h.patch_normal[i], lo, lo + Vec3::ONE, 0);
+                    let packed = h.patch_comp[i];
                     (
                         p,
                         h.grid.to_world(packed.position(lo, lo + Vec3::ONE)),

@@ -58,6 +58,10 @@ pub struct Hermite {
     /// [`crate::comp::Comp::pack`] rounds it): the QEF's minimiser, moved toward
     /// the mass point where that would fold a quad (module `vertex`).
     pub(crate) patch_vertex: Vec<Vec3>,
+    /// Each patch's vertex and normal as a cell leaf of the tree stores them
+    /// ([`crate::comp::Comp::pack`] of [`Hermite::patch_vertex`] and
+    /// [`Hermite::patch_normal`] in its cell), packed once.
+    pub(crate) patch_comp: Vec<crate::comp::Comp>,
     /// Number of edges with a sign change.
     pub(crate) crossings: usize,
     /// Every edge crossing, in a fixed order.
@@ -266,7 +270,7 @@ impl Hermite {
         let p = patches::accumulate(
             found, &cells, &lookup, values, grid, patches, borders, coarser,
         )?;
-        let patch_vertex = vertex::cell_vertices(
+        let (patch_vertex, patch_comp) = vertex::cell_vertices(
             &cells,
             &p.qef,
             &p.normal,
@@ -285,6 +289,7 @@ impl Hermite {
             patch_qef: p.qef,
             patch_normal: p.normal,
             patch_vertex,
+            patch_comp,
             crossings: p.crossings,
             edges: p.edges,
             cell_material,

@@ -77,7 +77,8 @@ pub(super) struct DualQuad {
 
 /// Each patch's vertex (grid units; tested where [`Comp::pack`] will round it):
 /// its QEF's minimiser in its cell, moved toward its mass point where the
-/// minimiser folds a quad of `quads` (see the module docs).
+/// minimiser folds a quad of `quads` (see the module docs); and each vertex
+/// with its normal as the tree stores them (packed in the patch's cell).
 ///
 /// `fixed` are corners that do not move (a coarser chunk's cells across a
 /// face between levels: their vertex and unit normal, as that chunk stores
@@ -90,7 +91,7 @@ pub(super) fn cell_vertices(
     quads: &[DualQuad],
     facing: &Facing,
     fixed: &[(Vec3, Vec3)],
-) -> Vec<Vec3> {
+) -> (Vec<Vec3>, Vec<Comp>) {
     let tables = CellTables::get();
     let own = qef.len();
     // Each patch's cell (a fixed corner's is past the cells).
@@ -104,28 +105,29 @@ pub(super) fn cell_vertices(
         *c = (cells.len() + i) as u32;
     }
     let lo = |p: usize| Vec3::from_array(cells[cell_of[p] as usize].coord.map(|v| v as f32));
-    // Where the tree will store a vertex: the quads are tested as they will be
+    // How the tree will store a vertex: the quads are tested as they will be
     // meshed.
-    let stored = |v: Vec3, p: usize| {
-        let (l, h) = (lo(p), lo(p) + Vec3::ONE);
-        Comp::pack(v, normal[p], l, h, 0).position(l, h)
-    };
+    let pack = |v: Vec3, p: usize| Comp::pack(v, normal[p], lo(p), lo(p) + Vec3::ONE, 0);
+    let at = |c: &Comp, p: usize| c.position(lo(p), lo(p) + Vec3::ONE);
     let mut vertex: Vec<Vec3> = (0..own)
         .into_par_iter()
         .map(|p| qef[p].solve(lo(p), lo(p) + Vec3::ONE).0)
         .collect();
-    let mut rounded: Vec<Vec3> = vertex
+    let mut packed: Vec<Comp> = vertex
         .par_iter()
         .enumerate()
-        .map(|(p, &v)| stored(v, p))
+        .map(|(p, &v)| pack(v, p))
+        .collect();
+    let mut rounded: Vec<Vec3> = packed
+        .par_iter()
+        .enumerate()
+        .map(|(p, c)| at(c, p))
         .collect();
     vertex.extend(fixed.iter().map(|f| f.0));
     rounded.extend(fixed.iter().map(|f| f.0));
-    // Each patch's normal as the tree stores it (the mesh splits quads by it).
-    let mut unit: Vec<Vec3> = normal
-        .par_iter()
-        .map(|&n| Comp::pack(Vec3::ZERO, n, Vec3::ZERO, Vec3::ONE, 0).normal())
-        .collect();
+    // Each patch's normal as the tree stores it (the mesh splits quads by it;
+    // a packed normal does not depend on the vertex or its box).
+    let mut unit: Vec<Vec3> = packed.par_iter().map(Comp::normal).collect();
     unit.extend(fixed.iter().map(|f| f.1));
     // How far each patch has moved from its minimiser toward its mass point, in
     // steps of 1 / STEPS; a patch whose step would make a crossing stays put
@@ -172,10 +174,12 @@ pub(super) fn cell_vertices(
         let place = |p: usize, k: u8| {
             minimiser[p].lerp(qef[p].mass_point().as_vec3(), k as f32 / STEPS as f32)
         };
+        let before: Vec<Comp> = moving.iter().map(|&p| packed[p as usize]).collect();
         for &p in &moving {
             let p = p as usize;
             step[p] += 1;
-            rounded[p] = stored(place(p, step[p]), p);
+            packed[p] = pack(place(p, step[p]), p);
+            rounded[p] = at(&packed[p], p);
         }
         let around = around.get_or_insert_with(|| Around::new(quads, &cell_of, cells, own));
         // The quads around the moving patches, each with the quads that share
@@ -240,10 +244,11 @@ pub(super) fn cell_vertices(
             }
         }
         let mut stepped: Vec<u32> = Vec::with_capacity(moving.len());
-        for (&p, cross) in moving.iter().zip(crossing) {
+        for ((&p, cross), old) in moving.iter().zip(crossing).zip(before) {
             if cross {
                 step[p as usize] = FROZEN;
                 rounded[p as usize] = prev[p as usize];
+                packed[p as usize] = old;
             } else {
                 vertex[p as usize] = place(p as usize, step[p as usize]);
                 stepped.extend_from_slice(around.of(p));
@@ -257,7 +262,7 @@ pub(super) fn cell_vertices(
         dirty = Some(stepped);
     }
     vertex.truncate(own);
-    vertex
+    (vertex, packed)
 }
 
 /// Whether the quad faces its edge's way as the mesh will split it

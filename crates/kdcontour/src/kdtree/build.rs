@@ -13,7 +13,7 @@ use super::cluster::cluster;
 use super::coarser::Coarser;
 use super::fold::refuse_folding_leaves;
 use super::split::{empty_cut, kd_split, EMPTY_CUT_CELLS};
-use super::{Comp, KdNode, KdTree, CELL, NONE};
+use super::{KdNode, KdTree, CELL, NONE};
 use crate::boundary::open_faces;
 use crate::cell::{edge_corners, CellTables};
 use crate::field::Field;
@@ -541,8 +541,6 @@ fn cell_leaf(
 ) -> (u32, usize) {
     let c = ctx.h.cells[id as usize];
     let cc = ctx.tables.cell(c.config, c.mask);
-    let lo = Vec3::new(min[0] as f32, min[1] as f32, min[2] as f32);
-    let hi = Vec3::new(max[0] as f32, max[1] as f32, max[2] as f32);
     let comp_start = arena.comps.len() as u32;
     let mut error = 0f64;
     for k in 0..cc.count as usize {
@@ -552,7 +550,8 @@ fn cell_leaf(
         let e = q.error_at(vertex.as_dvec3());
         error = error.max(e);
         let normal = ctx.h.patch_normal[p];
-        arena.comps.push(Comp::pack(vertex, normal, lo, hi, 0));
+        // Packed in the cell (this box) by the Hermite stage.
+        arena.comps.push(ctx.h.patch_comp[p]);
         arena.normals.push(normal);
         stack.push(q);
     }
