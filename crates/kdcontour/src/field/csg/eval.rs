@@ -267,6 +267,18 @@ impl Field for Csg {
     ) {
         self.root.sample(grid, z_range, out)
     }
+    /// Column by column where a height field is batched, with the children
+    /// evaluated corner by corner skipped where the batched ones already put
+    /// the corner more than `far` from zero.
+    fn sample_grid_far(
+        &self,
+        grid: &crate::grid::Grid,
+        z_range: std::ops::Range<u32>,
+        out: &mut [f32],
+        far: f32,
+    ) {
+        self.root.sample_far(grid, z_range, out, far)
+    }
     /// The first noise node (depth first) out of its reach at `p`, by its node
     /// path: `scene node `root.child` (heightfield): noise evaluated too far ...`.
     fn explain_non_finite(&self, p: Vec3) -> Option<String> {

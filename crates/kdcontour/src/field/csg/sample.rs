@@ -53,13 +53,178 @@ impl Node {
             _ => crate::field::sample_each(grid, z_range, out, |p| self.value(p)),
         }
     }
+
+    /// [`Field::sample_grid_far`] of this subtree: [`Node::sample`]'s values,
+    /// except that where the batched children of a union, intersection or
+    /// difference already decide that the result is more than `far` from zero
+    /// (a union's below `-far`, an intersection's above `far`, a difference's
+    /// `a` above `far`), the children evaluated corner by corner are skipped
+    /// and the corner holds [`FAR`](crate::grid::FAR) with that sign. A box
+    /// closing a height field is then evaluated only near the ground, not in
+    /// the sky above it. Every other corner has `value`'s bits (min and max
+    /// are exact and commutative, so the order of the children does not
+    /// matter).
+    pub(super) fn sample_far(
+        &self,
+        grid: &Grid,
+        z_range: std::ops::Range<u32>,
+        out: &mut [f32],
+        far: f32,
+    ) {
+        use crate::grid::FAR;
+        // Past `far` on the side that decides `f`, for each combination.
+        let above = |v: f32| v > far;
+        let below = |v: f32| v < -far;
+        match &self.op {
+            Op::Union(ch) if self.batches() => {
+                out.fill(f32::INFINITY);
+                self.combine_far(ch.iter(), grid, z_range, out, nan_min, below, -FAR);
+            }
+            Op::Intersection(ch) if self.batches() => {
+                out.fill(f32::NEG_INFINITY);
+                self.combine_far(ch.iter(), grid, z_range, out, nan_max, above, FAR);
+            }
+            Op::Difference(a, b) if self.batches() && !b.batches() => {
+                a.sample(grid, z_range.clone(), out);
+                let c = grid.corners();
+                let mut i = 0;
+                for z in z_range {
+                    for y in 0..c.y {
+                        for x in 0..c.x {
+                            out[i] = if above(out[i]) {
+                                FAR
+                            } else {
+                                let p = grid.corner_pos(glam::UVec3::new(x, y, z));
+                                nan_max(out[i], -b.value(p))
+                            };
+                            i += 1;
+                        }
+                    }
+                }
+            }
+            _ => self.sample(grid, z_range, out),
+        }
+    }
+
+    /// Combines `ch` into `out` with `f`: the batched children sampled first
+    /// (exactly), then the others corner by corner where `decided` does not
+    /// yet hold of the running value (where it does, the corner gets `far`).
+    #[allow(clippy::too_many_arguments)]
+    fn combine_far<'a>(
+        &self,
+        ch: impl Iterator<Item = &'a Node> + Clone,
+        grid: &Grid,
+        z_range: std::ops::Range<u32>,
+        out: &mut [f32],
+        f: fn(f32, f32) -> f32,
+        decided: impl Fn(f32) -> bool,
+        far: f32,
+    ) {
+        let mut tmp = vec![0f32; out.len()];
+        for c in ch.clone().filter(|c| c.batches()) {
+            c.sample(grid, z_range.clone(), &mut tmp);
+            for (o, t) in out.iter_mut().zip(&tmp) {
+                *o = f(*o, *t);
+            }
+        }
+        let corners = grid.corners();
+        for c in ch.filter(|c| !c.batches()) {
+            let mut i = 0;
+            for z in z_range.clone() {
+                for y in 0..corners.y {
+                    for x in 0..corners.x {
+                        out[i] = if decided(out[i]) {
+                            far
+                        } else {
+                            let p = grid.corner_pos(glam::UVec3::new(x, y, z));
+                            f(out[i], c.value(p))
+                        };
+                        i += 1;
+                    }
+                }
+            }
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use crate::field::csg::CsgNode;
     use crate::field::Field;
+    use crate::grid::FAR;
     use glam::Vec3;
+
+    /// Far sampling of batched trees: every corner holds `value`'s bits, or
+    /// `FAR` with `value`'s sign where `value` is more than `far` from zero;
+    /// and the box closing a height field is skipped in the sky (some corners
+    /// are `FAR`). Unions, intersections and differences whose other children
+    /// are evaluated corner by corner, nested and with a NaN-free terrain.
+    #[test]
+    fn far_sampling_of_batched_trees_is_value_or_far_with_its_sign() {
+        let hf = r#"{"type":"heightfield","seed":3,"base":0.0,"amplitude":0.35,"frequency":1.5,"octaves":5}"#;
+        let scenes = [
+            format!(
+                r#"{{"type":"intersection","children":[{{"type":"box","half_extents":[0.85,0.85,0.85]}},{hf}]}}"#
+            ),
+            format!(
+                r#"{{"type":"union","children":[{{"type":"sphere","radius":0.3,"center":[0.2,0.5,0]}},{hf},
+                    {{"type":"torus","major_radius":0.5,"minor_radius":0.1,"center":[0,-0.6,0]}}]}}"#
+            ),
+            format!(
+                r#"{{"type":"difference","a":{{"type":"intersection","children":[{hf},
+                    {{"type":"box","half_extents":[0.8,0.9,0.7]}}]}},
+                    "b":{{"type":"sphere","radius":0.35,"center":[0.1,0.0,-0.2]}}}}"#
+            ),
+            format!(
+                r#"{{"type":"difference","a":{{"type":"box","half_extents":[0.8,0.9,0.7]}},"b":{hf}}}"#
+            ),
+        ];
+        let grid = crate::grid::Grid {
+            origin: Vec3::splat(-1.0),
+            cell_size: 2.0 / 24.0,
+            cells: glam::UVec3::new(24, 21, 23),
+            offset: glam::IVec3::new(0, 1, -1),
+        };
+        let c = grid.corners();
+        let far = 2.0 * grid.cell_size;
+        for (k, json) in scenes.iter().enumerate() {
+            let f = CsgNode::from_json(json).unwrap().compile().unwrap();
+            assert!(f.root.batches(), "{json}");
+            let (z0, z1) = (1, 20);
+            let mut out = vec![0f32; (c.x * c.y * (z1 - z0)) as usize];
+            f.sample_grid_far(&grid, z0..z1, &mut out, far);
+            let (mut i, mut skipped) = (0, 0);
+            for z in z0..z1 {
+                for y in 0..c.y {
+                    for x in 0..c.x {
+                        let v = f.value(grid.corner_pos(glam::UVec3::new(x, y, z)));
+                        if out[i].abs() == FAR {
+                            skipped += 1;
+                            assert!(
+                                v.abs() > far && v.signum() == out[i].signum(),
+                                "{json} at {x} {y} {z}: FAR {} for {v}",
+                                out[i]
+                            );
+                        } else {
+                            assert_eq!(out[i].to_bits(), v.to_bits(), "{json} at {x} {y} {z}");
+                        }
+                        i += 1;
+                    }
+                }
+            }
+            // The box, the sphere and the torus are skipped where the terrain
+            // decides; a difference whose `b` is the terrain is sampled exactly.
+            if k < 3 {
+                assert!(
+                    skipped > out.len() / 10,
+                    "{json}: {skipped} of {}",
+                    out.len()
+                );
+            } else {
+                assert_eq!(skipped, 0, "{json}");
+            }
+        }
+    }
 
     #[test]
     fn batched_grid_sampling_matches_value_bit_for_bit() {
