@@ -18,6 +18,14 @@ fn smin_weight(a: f32, b: f32, k: f32) -> f32 {
 /// [`Node::value`] computes it, the materials mixed by the same weight.
 fn smin_material(a: (f32, MaterialBlend), b: (f32, MaterialBlend), k: f32) -> (f32, MaterialBlend) {
     let h = smin_weight(a.0, b.0, k);
+    // One operand `k` or more below the other is the blend, exactly (as
+    // [`super::eval`]'s `smin` has it, so a far child can be skipped).
+    if h == 1.0 {
+        return a;
+    }
+    if h == 0.0 {
+        return b;
+    }
     let d = b.0 + (a.0 - b.0) * h - k * h * (1.0 - h);
     (d, MaterialBlend::mix(a.1, b.1, 1.0 - h))
 }
@@ -54,27 +62,69 @@ impl Node {
         }
         match &self.op {
             Op::Prim(..) => (self.value(p), own),
-            Op::Union(ch) => all(ch, p, given)
-                .reduce(|a, b| winner(a, b, nan_min))
-                .expect("checked: at least one child"),
+            // Unions and differences skip the children whose bound proves they
+            // cannot change the result, as `Node::value` does: a scene of
+            // thousands of shapes reads the few near `p`.
+            Op::Union(ch) if self.bvh.is_some() => {
+                let bvh = self.bvh.as_ref().expect("matched");
+                bvh.union(ch, p, (f32::INFINITY, own), |r| r.0, &|c| {
+                    c.material(p, given)
+                })
+            }
+            Op::Union(ch) => {
+                let mut best: Option<(f32, MaterialBlend)> = None;
+                for c in ch {
+                    if let (Some(b), Some(r)) = (c.bound, best) {
+                        if b.lower(p) >= r.0 {
+                            continue;
+                        }
+                    }
+                    let m = c.material(p, given);
+                    best = Some(match best {
+                        Some(r) => winner(r, m, nan_min),
+                        None => m,
+                    });
+                }
+                best.expect("checked: at least one child")
+            }
             Op::Intersection(ch) => all(ch, p, given)
                 .reduce(|a, b| winner(a, b, nan_max))
                 .expect("checked: at least one child"),
             Op::Difference(a, b) => {
-                winner(a.material(p, given), neg(b.material(p, given)), nan_max)
+                let a = a.material(p, given);
+                if let Some(bb) = b.bound {
+                    if -bb.lower(p) <= a.0 {
+                        return a;
+                    }
+                }
+                winner(a, neg(b.material(p, given)), nan_max)
             }
-            Op::SmoothUnion(k, ch) => all(ch, p, given)
-                .reduce(|a, b| smin_material(a, b, *k))
-                .expect("checked: at least one child"),
+            Op::SmoothUnion(k, ch) => {
+                let (first, rest) = ch.split_first().expect("checked: a child at least");
+                let mut r = first.material(p, given);
+                for c in rest {
+                    if let Some(b) = c.bound {
+                        if b.lower(p) >= r.0 + *k {
+                            continue;
+                        }
+                    }
+                    r = smin_material(r, c.material(p, given), *k);
+                }
+                r
+            }
             Op::SmoothIntersection(k, ch) => neg(all(ch, p, given)
                 .map(neg)
                 .reduce(|a, b| smin_material(a, b, *k))
                 .expect("checked: at least one child")),
-            Op::SmoothDifference(k, a, b) => neg(smin_material(
-                neg(a.material(p, given)),
-                b.material(p, given),
-                *k,
-            )),
+            Op::SmoothDifference(k, a, b) => {
+                let a = neg(a.material(p, given));
+                if let Some(bb) = b.bound {
+                    if bb.lower(p) >= a.0 + *k {
+                        return neg(a);
+                    }
+                }
+                neg(smin_material(a, b.material(p, given), *k))
+            }
             Op::Transform {
                 inv_rot,
                 translate,
@@ -111,9 +161,103 @@ impl Node {
 
 #[cfg(test)]
 mod tests {
+    use super::{neg, smin_material, winner, Node, Op};
+    use crate::field::csg::eval::{nan_max, nan_min};
     use crate::field::csg::CsgNode;
     use crate::field::Field;
+    use crate::material::MaterialBlend;
     use glam::Vec3;
+
+    /// [`Node::material`] with every child of every union and difference
+    /// evaluated (no bound skipping).
+    fn every_child(n: &Node, p: Vec3, given: Option<u8>) -> (f32, MaterialBlend) {
+        let all = |ch: &[Node]| -> Vec<(f32, MaterialBlend)> {
+            ch.iter().map(|c| every_child(c, p, given)).collect()
+        };
+        match &n.op {
+            Op::Union(ch) => all(ch)
+                .into_iter()
+                .reduce(|a, b| winner(a, b, nan_min))
+                .unwrap(),
+            Op::SmoothUnion(k, ch) => all(ch)
+                .into_iter()
+                .reduce(|a, b| smin_material(a, b, *k))
+                .unwrap(),
+            Op::Difference(a, b) => winner(
+                every_child(a, p, given),
+                neg(every_child(b, p, given)),
+                nan_max,
+            ),
+            Op::SmoothDifference(k, a, b) => neg(smin_material(
+                neg(every_child(a, p, given)),
+                every_child(b, p, given),
+                *k,
+            )),
+            Op::Material(id, c) => every_child(c, p, Some(*id)),
+            _ => n.material(p, given),
+        }
+    }
+
+    /// Materials skip the children a bound proves cannot change the result
+    /// (a scene of thousands of shapes reads the few near a point), and give
+    /// what evaluating every child gives, bit for bit: unions large enough
+    /// for a hierarchy of bounds and small ones, smooth unions, differences
+    /// and smooth differences, at points on, near and far from the shapes.
+    #[test]
+    fn materials_skip_far_children_and_give_what_every_child_gives() {
+        let spheres = |n: usize, r: f32| -> String {
+            (0..n)
+                .map(|i| {
+                    let t = i as f32 * 0.37;
+                    format!(
+                        r#"{{"type":"material","id":{},"child":{{"type":"sphere","radius":{r},"center":[{},{},{}]}}}}"#,
+                        i % 7,
+                        t.sin() * 0.8,
+                        (1.3 * t).cos() * 0.8,
+                        (0.7 * t).sin() * 0.8
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join(",")
+        };
+        let scenes = [
+            format!(r#"{{"type":"union","children":[{}]}}"#, spheres(400, 0.06)),
+            format!(r#"{{"type":"union","children":[{}]}}"#, spheres(5, 0.3)),
+            format!(
+                r#"{{"type":"smooth_union","radius":0.05,"children":[{}]}}"#,
+                spheres(120, 0.08)
+            ),
+            format!(
+                r#"{{"type":"difference","a":{{"type":"union","children":[{}]}},
+                    "b":{{"type":"material","id":9,"child":{{"type":"box","half_extents":[0.3,0.3,0.3]}}}}}}"#,
+                spheres(200, 0.07)
+            ),
+            format!(
+                r#"{{"type":"smooth_difference","radius":0.06,
+                    "a":{{"type":"smooth_union","radius":0.04,"children":[{}]}},
+                    "b":{{"type":"material","id":8,"child":{{"type":"sphere","radius":0.4}}}}}}"#,
+                spheres(80, 0.09)
+            ),
+        ];
+        for json in &scenes {
+            let f = CsgNode::from_json(json).unwrap().compile().unwrap();
+            for i in 0..3000u32 {
+                let h =
+                    |k: u32| ((i.wrapping_mul(2654435761) ^ (k * 40503)) % 10007) as f32 / 10007.0;
+                let p = Vec3::new(h(1), h(2), h(3)) * 2.2 - Vec3::splat(1.1);
+                let (v, m) = f.root.material(p, None);
+                let (v0, m0) = every_child(&f.root, p, None);
+                assert_eq!(v.to_bits(), v0.to_bits(), "{json} value at {p}");
+                assert_eq!(m.ids, m0.ids, "at {p}");
+                assert_eq!(
+                    m.weights.map(f32::to_bits),
+                    m0.weights.map(f32::to_bits),
+                    "at {p}"
+                );
+                assert_eq!(m, f.material(p), "at {p}");
+            }
+        }
+    }
 
     #[test]
     fn booleans_take_the_winning_side_and_smooth_ones_blend() {
