@@ -47,29 +47,34 @@ fn main() {
     };
     let (mut seams, mut flipped) = (0, 0);
     let mut one = IndexedMesh::default();
+    // Prints the flipped faces of `one` under `heading` (once, before the
+    // first); returns how many there are.
+    let list = |one: &IndexedMesh, heading: &dyn Fn() -> String| {
+        let mut count = 0;
+        for t in one.indices.chunks(3) {
+            let p = [0, 1, 2].map(|i| one.positions[t[i] as usize]);
+            let n = (p[1] - p[0]).cross(p[2] - p[0]);
+            let g = field.gradient((p[0] + p[1] + p[2]) / 3.0);
+            if n.dot(g) >= 0.0 {
+                continue;
+            }
+            if count == 0 {
+                println!("{}: {} faces", heading(), one.triangle_count());
+            }
+            count += 1;
+            println!(
+                "  {:?} normal {:?} gradient {:?}",
+                p.map(in_cells),
+                n.normalize_or_zero(),
+                g.normalize_or_zero()
+            );
+        }
+        count
+    };
     if inside {
         for k in w.chunks() {
             w.extract_interior(&k, &mut one);
-            let mut first = true;
-            for t in one.indices.chunks(3) {
-                let p = [0, 1, 2].map(|i| one.positions[t[i] as usize]);
-                let n = (p[1] - p[0]).cross(p[2] - p[0]);
-                let g = field.gradient((p[0] + p[1] + p[2]) / 3.0);
-                if n.dot(g) >= 0.0 {
-                    continue;
-                }
-                flipped += 1;
-                if first {
-                    println!("chunk {k:?}: {} faces", one.triangle_count());
-                    first = false;
-                }
-                println!(
-                    "  {:?} normal {:?} gradient {:?}",
-                    p.map(in_cells),
-                    n.normalize_or_zero(),
-                    g.normalize_or_zero()
-                );
-            }
+            flipped += list(&one, &|| format!("chunk {k:?}"));
         }
         println!("{name} {layout_name} at {threshold}: {flipped} flipped faces inside chunks");
         return;
@@ -84,29 +89,9 @@ fn main() {
             }
             seams += 1;
             w.extract_seam(&s, &mut one);
-            let mut first = true;
-            for t in one.indices.chunks(3) {
-                let p = [0, 1, 2].map(|i| one.positions[t[i] as usize]);
-                let n = (p[1] - p[0]).cross(p[2] - p[0]);
-                let g = field.gradient((p[0] + p[1] + p[2]) / 3.0);
-                if n.dot(g) >= 0.0 {
-                    continue;
-                }
-                flipped += 1;
-                if first {
-                    println!(
-                        "seam {low:?} | {high:?} across axis {axis}: {} faces",
-                        one.triangle_count()
-                    );
-                    first = false;
-                }
-                println!(
-                    "  {:?} normal {:?} gradient {:?}",
-                    p.map(in_cells),
-                    n.normalize_or_zero(),
-                    g.normalize_or_zero()
-                );
-            }
+            flipped += list(&one, &|| {
+                format!("seam {low:?} | {high:?} across axis {axis}")
+            });
         }
     }
     let kind = if same_level {

@@ -86,21 +86,7 @@ impl Node {
             }
             Op::Difference(a, b) if self.batches() && !b.batches() => {
                 a.sample(grid, z_range.clone(), out);
-                let c = grid.corners();
-                let mut i = 0;
-                for z in z_range {
-                    for y in 0..c.y {
-                        for x in 0..c.x {
-                            out[i] = if above(out[i]) {
-                                FAR
-                            } else {
-                                let p = grid.corner_pos(glam::UVec3::new(x, y, z));
-                                nan_max(out[i], -b.value(p))
-                            };
-                            i += 1;
-                        }
-                    }
-                }
+                b.fold_far(grid, z_range, out, |o, v| nan_max(o, -v), above, FAR);
             }
             _ => self.sample(grid, z_range, out),
         }
@@ -127,20 +113,37 @@ impl Node {
                 *o = f(*o, *t);
             }
         }
-        let corners = grid.corners();
         for c in ch.filter(|c| !c.batches()) {
-            let mut i = 0;
-            for z in z_range.clone() {
-                for y in 0..corners.y {
-                    for x in 0..corners.x {
-                        out[i] = if decided(out[i]) {
-                            far
-                        } else {
-                            let p = grid.corner_pos(glam::UVec3::new(x, y, z));
-                            f(out[i], c.value(p))
-                        };
-                        i += 1;
-                    }
+            c.fold_far(grid, z_range.clone(), out, f, &decided, far);
+        }
+    }
+
+    /// Folds this node's value into `out` with `f` corner by corner, except
+    /// where `decided` already holds of the running value: there the corner
+    /// gets `far`.
+    fn fold_far(
+        &self,
+        grid: &Grid,
+        z_range: std::ops::Range<u32>,
+        out: &mut [f32],
+        f: impl Fn(f32, f32) -> f32,
+        decided: impl Fn(f32) -> bool,
+        far: f32,
+    ) {
+        let corners = grid.corners();
+        let mut i = 0;
+        for z in z_range {
+            for y in 0..corners.y {
+                for x in 0..corners.x {
+                    out[i] = if decided(out[i]) {
+                        far
+                    } else {
+                        f(
+                            out[i],
+                            self.value(grid.corner_pos(glam::UVec3::new(x, y, z))),
+                        )
+                    };
+                    i += 1;
                 }
             }
         }
