@@ -271,12 +271,71 @@ impl Heightfield {
         (p.y - height, gradient)
     }
 
+    /// Bounds on [`Field::value`] at `p` without evaluating the noise, `None`
+    /// where the value may be NaN (out of the noise's reach): what lets a CSG
+    /// tree skip the height field where another child decides.
+    pub(crate) fn range_at(&self, p: Vec3) -> Option<(f32, f32)> {
+        self.in_reach([p.x as f64, p.z as f64])
+            .then(|| self.bound(p, p))
+            .flatten()
+    }
+
+    /// A noise value above which the value at `p` is surely below `v` (the
+    /// value's f32 operations err far less than the slack); infinite where
+    /// none is (a flat field).
+    fn noise_bar(&self, p: Vec3, v: f32) -> f64 {
+        let (base, amp) = (self.params.base as f64, self.params.amplitude as f64);
+        if amp <= 0.0 {
+            return f64::INFINITY;
+        }
+        let (y, v) = (p.y as f64, v as f64);
+        let slack = 1e-5 * (y.abs() + base.abs() + amp + v.abs()) + 1e-6;
+        (y - base - v + slack) / amp
+    }
+
+    /// [`Field::value`] at `p`, bit for bit, unless it is surely below `v`
+    /// (then `None`, after as few octaves of the noise as prove it): what an
+    /// intersection already at `v` asks of a height field.
+    pub(crate) fn value_unless_below(&self, p: Vec3, v: f32) -> Option<f32> {
+        let q = [p.x as f64, p.z as f64];
+        if !self.in_reach(q) {
+            return Some(self.value(p));
+        }
+        let n = self.noise.get_unless_above(q, self.noise_bar(p, v))?;
+        Some(p.y - (self.params.base + self.params.amplitude * n as f32))
+    }
+
+    /// [`Heightfield::value_gradient`], bit for bit, unless the value is
+    /// surely below `v` (see [`Heightfield::value_unless_below`]).
+    pub(crate) fn value_gradient_unless_below(&self, p: Vec3, v: f32) -> Option<(f32, Vec3)> {
+        let q = [p.x as f64, p.z as f64];
+        if !self.in_reach(q) {
+            return Some(self.value_gradient(p));
+        }
+        let (n, [dx, dz]) = self.noise.get_grad_unless_above(q, self.noise_bar(p, v))?;
+        let height = self.params.base + self.params.amplitude * n as f32;
+        let amp = self.params.amplitude as f64;
+        let gradient = Vec3::new((-amp * dx) as f32, 1.0, (-amp * dz) as f32);
+        Some((p.y - height, gradient))
+    }
+
     /// [`Field::value`] and [`Field::material`] at `p`, bit for bit, from one
     /// evaluation of the noise ([`Heightfield::value_gradient`]): what a CSG
     /// tree asks of a height field when it reads materials.
     pub(crate) fn value_and_material(&self, p: Vec3) -> (f32, crate::material::MaterialBlend) {
         let (value, gradient) = self.value_gradient(p);
         (value, self.paint.at(p, gradient, 0.0))
+    }
+
+    /// [`Heightfield::value_and_material`], bit for bit, unless the value is
+    /// surely below `v` (see [`Heightfield::value_unless_below`]).
+    pub(crate) fn value_and_material_unless_below(
+        &self,
+        p: Vec3,
+        v: f32,
+    ) -> Option<(f32, crate::material::MaterialBlend)> {
+        let (value, gradient) = self.value_gradient_unless_below(p, v)?;
+        Some((value, self.paint.at(p, gradient, 0.0)))
     }
 }
 
@@ -412,6 +471,14 @@ impl Density {
 }
 
 impl Density {
+    /// Bounds on [`Field::value`] at `p` without evaluating a noise, `None`
+    /// where the value may be NaN (see [`Heightfield::range_at`]).
+    pub(crate) fn range_at(&self, p: Vec3) -> Option<(f32, f32)> {
+        self.in_reach([p.x as f64, p.y as f64, p.z as f64])
+            .then(|| self.bound(p, p))
+            .flatten()
+    }
+
     /// Whether every noise this field evaluates at `q` stays within
     /// [`NOISE_REACH`] (beyond it the value is NaN, reported as a non-finite
     /// sample, instead of a panic inside the noise).

@@ -54,7 +54,8 @@ fn neg(a: (f32, Vec3)) -> (f32, Vec3) {
 
 impl Node {
     /// The value and gradient at `p`. Unions and differences skip children whose
-    /// bound proves they cannot change the result.
+    /// bound proves they cannot change the result, and booleans read a noise
+    /// terrain only until the other side decides ([`Node::eval_unless_below`]).
     pub(super) fn eval(&self, p: Vec3) -> (f32, Vec3) {
         match &self.op {
             Op::Prim(prim, c) => prim.value_gradient(p - *c),
@@ -70,6 +71,9 @@ impl Node {
                             continue;
                         }
                     }
+                    if c.surely_above(p, best.0) {
+                        continue;
+                    }
                     let v = c.eval(p);
                     if above(-v.0, -best.0) {
                         best = v;
@@ -77,17 +81,27 @@ impl Node {
                 }
                 best
             }
-            Op::Intersection(ch) => ch
-                .iter()
-                .map(|c| c.eval(p))
-                .reduce(|a, b| if above(b.0, a.0) { b } else { a })
-                .unwrap(),
+            Op::Intersection(ch) => {
+                let (first, rest) = ch.split_first().expect("checked: a child at least");
+                let mut best = first.eval(p);
+                for c in rest {
+                    if let Some(v) = c.eval_unless_below(p, best.0) {
+                        if above(v.0, best.0) {
+                            best = v;
+                        }
+                    }
+                }
+                best
+            }
             Op::Difference(a, b) => {
                 let a = a.eval(p);
                 if let Some(bb) = b.bound {
                     if -bb.lower(p) <= a.0 {
                         return a;
                     }
+                }
+                if b.surely_above(p, -a.0) {
+                    return a;
                 }
                 let b = neg(b.eval(p));
                 if above(b.0, a.0) {
@@ -159,20 +173,31 @@ impl Node {
                             continue;
                         }
                     }
+                    if c.surely_above(p, best) {
+                        continue;
+                    }
                     best = nan_min(best, c.value(p));
                 }
                 best
             }
-            Op::Intersection(ch) => ch
-                .iter()
-                .map(|c| c.value(p))
-                .fold(f32::NEG_INFINITY, nan_max),
+            Op::Intersection(ch) => {
+                let mut best = f32::NEG_INFINITY;
+                for c in ch {
+                    if let Some(v) = c.value_unless_below(p, best) {
+                        best = nan_max(best, v);
+                    }
+                }
+                best
+            }
             Op::Difference(a, b) => {
                 let a = a.value(p);
                 if let Some(bb) = b.bound {
                     if -bb.lower(p) <= a {
                         return a;
                     }
+                }
+                if b.surely_above(p, -a) {
+                    return a;
                 }
                 nan_max(a, -b.value(p))
             }
@@ -190,6 +215,61 @@ impl Node {
                 self.eval(p).0
             }
         }
+    }
+}
+
+impl Node {
+    /// Bounds on the value at `p` that cost no noise evaluation, for the nodes
+    /// whose value does (noise terrain, transformed or given a material);
+    /// `None` for the rest, and where the value may be NaN.
+    pub(super) fn range(&self, p: Vec3) -> Option<(f32, f32)> {
+        match &self.op {
+            Op::Heightfield(h) => h.range_at(p),
+            Op::Density(d) => d.range_at(p),
+            Op::Material(_, child) => child.range(p),
+            Op::Transform {
+                inv_rot,
+                translate,
+                scale,
+                child,
+                ..
+            } => child
+                .range(*inv_rot * (p - *translate) / *scale)
+                .map(|(lo, hi)| (lo * scale, hi * scale)),
+            _ => None,
+        }
+    }
+
+    /// Whether the value at `p` is surely below `v` (so an intersection
+    /// already at `v` need not read it).
+    pub(super) fn surely_below(&self, p: Vec3, v: f32) -> bool {
+        self.range(p).is_some_and(|(_, hi)| hi < v)
+    }
+
+    /// [`Node::eval`], unless the value is surely below `v` (`None`): a height
+    /// field stops reading its noise's octaves as soon as they prove it.
+    pub(super) fn eval_unless_below(&self, p: Vec3, v: f32) -> Option<(f32, Vec3)> {
+        match &self.op {
+            Op::Heightfield(h) => h.value_gradient_unless_below(p, v),
+            Op::Material(_, child) => child.eval_unless_below(p, v),
+            _ => (!self.surely_below(p, v)).then(|| self.eval(p)),
+        }
+    }
+
+    /// [`Node::value`], unless it is surely below `v` (as
+    /// [`Node::eval_unless_below`]).
+    pub(super) fn value_unless_below(&self, p: Vec3, v: f32) -> Option<f32> {
+        match &self.op {
+            Op::Heightfield(h) => h.value_unless_below(p, v),
+            Op::Material(_, child) => child.value_unless_below(p, v),
+            _ => (!self.surely_below(p, v)).then(|| self.value(p)),
+        }
+    }
+
+    /// Whether the value at `p` is surely above `v` (so a union already at
+    /// `v` need not read it).
+    pub(super) fn surely_above(&self, p: Vec3, v: f32) -> bool {
+        self.range(p).is_some_and(|(lo, _)| lo > v)
     }
 }
 
@@ -298,11 +378,115 @@ impl Field for Csg {
     }
 }
 
+/// Trees whose height fields another child often decides (a box closing the
+/// terrain, a union with a sphere, a difference, a transformed and a flat
+/// height field, one read first), for the tests that skipping a noise
+/// changes no bit.
+#[cfg(test)]
+pub(super) const TERRAIN_SCENES: [&str; 6] = [
+    r#"{"type":"intersection","children":[{"type":"box","half_extents":[0.85,0.85,0.85]},
+        {"type":"heightfield","seed":3,"base":0.0,"amplitude":0.35,"frequency":1.5,"octaves":5}]}"#,
+    r#"{"type":"intersection","children":[
+        {"type":"material","id":4,"child":{"type":"heightfield","seed":9,"base":0.1,"amplitude":0.5,"frequency":2.5,"octaves":8}},
+        {"type":"sphere","radius":0.9}]}"#,
+    r#"{"type":"difference","a":{"type":"box","half_extents":[0.8,0.8,0.8]},
+        "b":{"type":"material","id":3,"child":{"type":"heightfield","seed":5,"base":-0.2,"amplitude":0.3,"frequency":2.0,"octaves":6}}}"#,
+    r#"{"type":"union","children":[{"type":"sphere","radius":0.3,"center":[0,0.5,0]},
+        {"type":"material","id":2,"child":{"type":"heightfield","seed":1,"base":0.0,"amplitude":0.25,"frequency":1.0,"octaves":4}}]}"#,
+    r#"{"type":"intersection","children":[{"type":"box","half_extents":[0.7,0.9,0.7]},
+        {"type":"transform","translate":[0.1,-0.2,0],"rotate_axis":[1,0,1],"rotate_degrees":20,"scale":2.0,
+         "child":{"type":"material","id":7,"child":{"type":"heightfield","seed":2,"base":0.0,"amplitude":0.2,"frequency":1.0,"octaves":5}}}]}"#,
+    r#"{"type":"intersection","children":[{"type":"sphere","radius":0.8},
+        {"type":"heightfield","seed":4,"base":0.1,"amplitude":0.0,"frequency":1.0,"octaves":3}]}"#,
+];
+
 #[cfg(test)]
 mod tests {
     use crate::field::csg::CsgNode;
     use crate::field::Field;
     use glam::Vec3;
+
+    /// A height field is read only until another child decides (an
+    /// intersection's value above it, a union's below it, a difference's
+    /// `a` above its complement), and the result is reading every child's,
+    /// bit for bit: value, gradient and `Csg::value`.
+    #[test]
+    fn noise_children_stop_where_another_child_decides_and_change_no_bit() {
+        use super::{above, nan_max, neg, Op};
+        let mut decided = 0;
+        for json in super::TERRAIN_SCENES {
+            let f = CsgNode::from_json(json).unwrap().compile().unwrap();
+            // Each child compiled alone: read whole.
+            let alone = |n: &CsgNode| n.compile().unwrap();
+            let node = CsgNode::from_json(json).unwrap();
+            let parts: Vec<_> = match &node {
+                CsgNode::Intersection { children } | CsgNode::Union { children } => {
+                    children.iter().map(alone).collect()
+                }
+                CsgNode::Difference { a, b } => vec![alone(a), alone(b)],
+                _ => unreachable!("the scenes are booleans"),
+            };
+            for i in 0..4000u32 {
+                let h =
+                    |k: u32| ((i.wrapping_mul(2654435761) ^ (k * 40503)) % 10007) as f32 / 10007.0;
+                let p = Vec3::new(h(1), h(2), h(3)) * 2.4 - Vec3::splat(1.2);
+                let each: Vec<(f32, Vec3)> = parts.iter().map(|c| c.root.eval(p)).collect();
+                let want = match &f.root.op {
+                    Op::Intersection(_) => each
+                        .iter()
+                        .copied()
+                        .reduce(|a, b| if above(b.0, a.0) { b } else { a })
+                        .unwrap(),
+                    Op::Union(_) => each.iter().copied().fold((f32::INFINITY, Vec3::Y), |a, b| {
+                        if above(-b.0, -a.0) {
+                            b
+                        } else {
+                            a
+                        }
+                    }),
+                    Op::Difference(..) => {
+                        let b = neg(each[1]);
+                        if above(b.0, each[0].0) {
+                            b
+                        } else {
+                            each[0]
+                        }
+                    }
+                    _ => unreachable!(),
+                };
+                let got = f.root.eval(p);
+                assert_eq!(got.0.to_bits(), want.0.to_bits(), "{json}: value at {p}");
+                assert_eq!(
+                    got.1.to_array().map(f32::to_bits),
+                    want.1.to_array().map(f32::to_bits),
+                    "{json}: gradient at {p}"
+                );
+                let value = match &f.root.op {
+                    Op::Intersection(_) => {
+                        each.iter().fold(f32::NEG_INFINITY, |a, b| nan_max(a, b.0))
+                    }
+                    Op::Union(_) => each
+                        .iter()
+                        .fold(f32::INFINITY, |a, b| super::nan_min(a, b.0)),
+                    _ => nan_max(each[0].0, -each[1].0),
+                };
+                assert_eq!(f.value(p).to_bits(), value.to_bits(), "{json}: {p}");
+                assert_eq!(
+                    f.value_and_gradient(p).map(|(v, _)| v.to_bits()),
+                    Some(want.0.to_bits()),
+                    "{json}: {p}"
+                );
+                // A child that loses by more than a cell of a 64-cell grid
+                // (the height field, at many points) need not be read whole.
+                decided +=
+                    usize::from(each.iter().any(|c| (c.0.abs() - want.0.abs()).abs() > 0.03));
+            }
+        }
+        assert!(
+            decided > 10_000,
+            "points where another child decides: {decided}"
+        );
+    }
 
     /// Skipping far children of a smooth union (and a smooth difference's far
     /// `b`) changes no bit of the value or gradient: the pruned tree equals the

@@ -79,6 +79,9 @@ impl Node {
                             continue;
                         }
                     }
+                    if best.is_some_and(|r| c.surely_above(p, r.0)) {
+                        continue;
+                    }
                     let m = c.material(p, given);
                     best = Some(match best {
                         Some(r) => winner(r, m, nan_min),
@@ -87,15 +90,25 @@ impl Node {
                 }
                 best.expect("checked: at least one child")
             }
-            Op::Intersection(ch) => all(ch, p, given)
-                .reduce(|a, b| winner(a, b, nan_max))
-                .expect("checked: at least one child"),
+            Op::Intersection(ch) => {
+                let (first, rest) = ch.split_first().expect("checked: a child at least");
+                let mut best = first.material(p, given);
+                for c in rest {
+                    if let Some(m) = c.material_unless_below(p, given, best.0) {
+                        best = winner(best, m, nan_max);
+                    }
+                }
+                best
+            }
             Op::Difference(a, b) => {
                 let a = a.material(p, given);
                 if let Some(bb) = b.bound {
                     if -bb.lower(p) <= a.0 {
                         return a;
                     }
+                }
+                if b.surely_above(p, -a.0) {
+                    return a;
                 }
                 winner(a, neg(b.material(p, given)), nan_max)
             }
@@ -139,6 +152,25 @@ impl Node {
             Op::Heightfield(h) if given.is_none() => h.value_and_material(p),
             Op::Heightfield(h) => (h.value(p), own),
             Op::Density(d) => (d.value(p), given.map_or_else(|| d.material(p), |_| own)),
+        }
+    }
+
+    /// [`Node::material`], unless the value is surely below `v` (`None`; see
+    /// [`Node::eval_unless_below`]).
+    fn material_unless_below(
+        &self,
+        p: Vec3,
+        given: Option<u8>,
+        v: f32,
+    ) -> Option<(f32, MaterialBlend)> {
+        match &self.op {
+            Op::Heightfield(h) if given.is_none() => h.value_and_material_unless_below(p, v),
+            Op::Heightfield(h) => Some((
+                h.value_unless_below(p, v)?,
+                MaterialBlend::single(given.unwrap_or(0)),
+            )),
+            Op::Material(id, child) => child.material_unless_below(p, Some(*id), v),
+            _ => (!self.surely_below(p, v)).then(|| self.material(p, given)),
         }
     }
 
@@ -193,6 +225,10 @@ mod tests {
                 every_child(b, p, given),
                 *k,
             )),
+            Op::Intersection(ch) => all(ch)
+                .into_iter()
+                .reduce(|a, b| winner(a, b, nan_max))
+                .unwrap(),
             Op::Material(id, c) => every_child(c, p, Some(*id)),
             _ => n.material(p, given),
         }
@@ -239,7 +275,8 @@ mod tests {
                 spheres(80, 0.09)
             ),
         ];
-        for json in &scenes {
+        let terrains = crate::field::csg::eval::TERRAIN_SCENES.map(String::from);
+        for json in scenes.iter().chain(&terrains) {
             let f = CsgNode::from_json(json).unwrap().compile().unwrap();
             for i in 0..3000u32 {
                 let h =

@@ -621,3 +621,80 @@ fn a_height_fields_value_with_gradient_or_material_is_its_own_bit_for_bit() {
     // The points cover more than one material.
     assert!(kinds.len() > 1, "materials seen: {kinds:?}");
 }
+
+/// A height field asked for its value unless it is below a bar gives its value
+/// bit for bit (with the gradient or material asked for), or `None` only where
+/// the value is below the bar; most bars a few units away stop within the
+/// first octaves, where the amplitude alone does not decide.
+#[test]
+fn a_height_field_read_unless_below_a_bar_is_its_own_or_below_it() {
+    use crate::field::Field;
+    let mut rng = Rng(5);
+    let far = NOISE_REACH as f32;
+    for height in [
+        hills(),
+        Heightfield::new(HeightfieldParams {
+            seed: 8,
+            base: -3.0,
+            amplitude: 0.0,
+            frequency: 0.1,
+            octaves: 3,
+        }),
+    ] {
+        let amp = height.params.amplitude;
+        let (mut stopped, mut stopped_early) = (0, 0);
+        let mut points: Vec<Vec3> = (0..3000)
+            .map(|_| {
+                point_in(
+                    &mut rng,
+                    Vec3::new(-300.0, -30.0, -300.0),
+                    Vec3::new(300.0, 30.0, 300.0),
+                )
+            })
+            .collect();
+        points.extend([Vec3::new(far, 0.0, 0.0), Vec3::new(0.0, 1.0, -far * 1e3)]);
+        for p in points {
+            let value = height.value(p);
+            let offsets = [-8.0, -2.0, -0.5, -1e-6, 0.0, 1e-6, 0.5, 2.0, 8.0];
+            let mut bars: Vec<f32> = offsets.iter().map(|o| value + o).collect();
+            bars.extend([f32::INFINITY, f32::NEG_INFINITY, f32::NAN, p.y + amp * 0.5]);
+            for v in bars {
+                let got = height.value_unless_below(p, v);
+                let with_gradient = height.value_gradient_unless_below(p, v);
+                let with_material = height.value_and_material_unless_below(p, v);
+                assert_eq!(got.is_none(), with_gradient.is_none(), "{p}, bar {v}");
+                assert_eq!(got.is_none(), with_material.is_none(), "{p}, bar {v}");
+                let Some(x) = got else {
+                    assert!(value < v, "skipped at {p}: value {value} is not below {v}");
+                    stopped += 1;
+                    // Not decided by the amplitude alone.
+                    stopped_early += usize::from(p.y - height.params.base + amp >= v);
+                    continue;
+                };
+                assert_eq!(x.to_bits(), value.to_bits(), "value at {p}");
+                let (x, g) = with_gradient.unwrap();
+                let (v0, g0) = height.value_gradient(p);
+                assert_eq!(x.to_bits(), v0.to_bits(), "value at {p}");
+                assert_eq!(
+                    g.to_array().map(f32::to_bits),
+                    g0.to_array().map(f32::to_bits),
+                    "gradient at {p}"
+                );
+                let (x, m) = with_material.unwrap();
+                let (v0, m0) = height.value_and_material(p);
+                assert_eq!(x.to_bits(), v0.to_bits(), "value at {p}");
+                assert_eq!(m.ids, m0.ids, "material at {p}");
+                assert_eq!(m.weights.map(f32::to_bits), m0.weights.map(f32::to_bits));
+            }
+        }
+        if amp > 0.0 {
+            assert!(stopped > 5000, "stopped {stopped}");
+            assert!(
+                stopped_early > 1000,
+                "stopped within the amplitude {stopped_early}"
+            );
+        } else {
+            assert_eq!(stopped, 0, "a flat field is read whole");
+        }
+    }
+}
