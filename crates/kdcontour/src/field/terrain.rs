@@ -214,6 +214,8 @@ pub struct Heightfield {
     params: HeightfieldParams,
     noise: Fbm2,
     paint: materials::Paint,
+    /// `1 / amplitude` (f64).
+    per_amplitude: f64,
 }
 
 impl Heightfield {
@@ -223,6 +225,7 @@ impl Heightfield {
         let paint =
             materials::Paint::new(params.seed, params.base, params.amplitude, params.frequency);
         Heightfield {
+            per_amplitude: 1.0 / params.amplitude as f64,
             params,
             noise,
             paint,
@@ -290,7 +293,8 @@ impl Heightfield {
         }
         let (y, v) = (p.y as f64, v as f64);
         let slack = 1e-5 * (y.abs() + base.abs() + amp + v.abs()) + 1e-6;
-        (y - base - v + slack) / amp
+        // A product by the inverse errs by an ulp, far below the slack.
+        (y - base - v + slack) * self.per_amplitude
     }
 
     /// [`Field::value`] at `p`, bit for bit, unless it is surely below `v`

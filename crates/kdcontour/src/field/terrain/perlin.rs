@@ -578,17 +578,21 @@ pub(super) struct Fbm2 {
     /// Per octave: the most the octaves from it on add to the sum (each
     /// octave's signal is within `[-1, 1]`, times its attenuation).
     rest: Vec<f64>,
+    /// `1 / scale`.
+    sum_per_value: f64,
 }
 
 impl Fbm2 {
     /// The fBm `super::fbm(seed, frequency, octaves)` computes in 2-D.
     pub(super) fn new(seed: u32, frequency: f32, octaves: u32) -> Self {
+        let sum = (1..=octaves).fold(0.0, |acc, x| acc + 0.5f64.powi(x as i32));
         Fbm2 {
             octaves: (0..octaves)
                 .map(|i| Perlin2::new(seed.wrapping_add(i)))
                 .collect(),
             frequency: frequency as f64,
-            scale: 1.0 / (1..=octaves).fold(0.0, |acc, x| acc + 0.5f64.powi(x as i32)),
+            scale: 1.0 / sum,
+            sum_per_value: sum,
             rest: (0..octaves)
                 .map(|i| (i..octaves).map(|j| 0.5f64.powi(j as i32 + 1)).sum())
                 .collect(),
@@ -600,7 +604,9 @@ impl Fbm2 {
     /// far past the rounding of the sum (at most 16 terms within 1) and of
     /// the scaling. Infinite (never passed) when `bar` is NaN.
     fn sum_bar(&self, bar: f64) -> f64 {
-        let t = (bar + 1e-9) / self.scale;
+        // `scale` is within [1, 2]: the sum is the value divided by it (a
+        // product by its inverse errs by an ulp, far below the slack).
+        let t = (bar + 1e-9) * self.sum_per_value;
         if t.is_nan() {
             f64::INFINITY
         } else {
@@ -654,23 +660,16 @@ impl Fbm2 {
     /// The value at `q` (world units), as `Fbm::get` computes it.
     #[inline]
     pub(super) fn get(&self, q: [f64; 2]) -> f64 {
-        let mut point = q.map(|x| x * self.frequency);
-        let (mut result, mut attenuation) = (0.0, 0.5);
-        for octave in &self.octaves {
-            let mut signal = octave.get(point);
-            signal *= attenuation;
-            attenuation *= 0.5;
-            result += signal;
-            point = point.map(|x| x * 2.0);
-        }
-        result * self.scale
+        // One octave loop for both (a second copy measured slower: the
+        // octave's noise was no longer inlined into either).
+        self.get_unless_above(q, f64::INFINITY)
+            .expect("no value is above infinity")
     }
 
     /// Value (as [`Fbm2::get`], bit for bit) and gradient at `q` (world units).
     #[inline]
     pub(super) fn get_grad(&self, q: [f64; 2]) -> (f64, [f64; 2]) {
-        // One octave loop for both (a second copy measured slower: the
-        // octave's noise was no longer inlined into either).
+        // One octave loop for both, as in `get`.
         self.get_grad_unless_above(q, f64::INFINITY)
             .expect("no value is above infinity")
     }
