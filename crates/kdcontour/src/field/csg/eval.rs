@@ -81,18 +81,7 @@ impl Node {
                 }
                 best
             }
-            Op::Intersection(ch) => {
-                let (first, rest) = ch.split_first().expect("checked: a child at least");
-                let mut best = first.eval(p);
-                for c in rest {
-                    if let Some(v) = c.eval_unless_below(p, best.0) {
-                        if above(v.0, best.0) {
-                            best = v;
-                        }
-                    }
-                }
-                best
-            }
+            Op::Intersection(ch) => intersection_eval(ch, p),
             Op::Difference(a, b) => {
                 let a = a.eval(p);
                 if let Some(bb) = b.bound {
@@ -180,15 +169,7 @@ impl Node {
                 }
                 best
             }
-            Op::Intersection(ch) => {
-                let mut best = f32::NEG_INFINITY;
-                for c in ch {
-                    if let Some(v) = c.value_unless_below(p, best) {
-                        best = nan_max(best, v);
-                    }
-                }
-                best
-            }
+            Op::Intersection(ch) => intersection_value(ch, p),
             Op::Difference(a, b) => {
                 let a = a.value(p);
                 if let Some(bb) = b.bound {
@@ -242,8 +223,10 @@ impl Node {
 
     /// Whether the value at `p` is surely below `v` (so an intersection
     /// already at `v` need not read it).
+    #[inline]
     pub(super) fn surely_below(&self, p: Vec3, v: f32) -> bool {
-        self.range(p).is_some_and(|(_, hi)| hi < v)
+        // Noise has no bounding sphere: a node with one is read as before.
+        self.bound.is_none() && self.range(p).is_some_and(|(_, hi)| hi < v)
     }
 
     /// [`Node::eval`], unless the value is surely below `v` (`None`): a height
@@ -268,9 +251,40 @@ impl Node {
 
     /// Whether the value at `p` is surely above `v` (so a union already at
     /// `v` need not read it).
+    #[inline]
     pub(super) fn surely_above(&self, p: Vec3, v: f32) -> bool {
-        self.range(p).is_some_and(|(lo, _)| lo > v)
+        self.bound.is_none() && self.range(p).is_some_and(|(lo, _)| lo > v)
     }
+}
+
+/// The value of the intersection of `ch` at `p`, each child read only where
+/// it can raise the value so far ([`Node::value_unless_below`]). Out of
+/// [`Node::value`]'s body: inlined there it made every other node's
+/// evaluation 5% slower (a union of eight cylinders sampled at 33³ corners).
+#[inline(never)]
+fn intersection_value(ch: &[Node], p: Vec3) -> f32 {
+    let mut best = f32::NEG_INFINITY;
+    for c in ch {
+        if let Some(v) = c.value_unless_below(p, best) {
+            best = nan_max(best, v);
+        }
+    }
+    best
+}
+
+/// [`intersection_value`] with the gradient, for [`Node::eval`].
+#[inline(never)]
+fn intersection_eval(ch: &[Node], p: Vec3) -> (f32, Vec3) {
+    let (first, rest) = ch.split_first().expect("checked: a child at least");
+    let mut best = first.eval(p);
+    for c in rest {
+        if let Some(v) = c.eval_unless_below(p, best.0) {
+            if above(v.0, best.0) {
+                best = v;
+            }
+        }
+    }
+    best
 }
 
 /// Whether `op`'s subtree is an exact distance bound (no noise terrain in it).
