@@ -1,7 +1,6 @@
 //! The one root search on a segment: the Illinois variant of false position,
-//! as the Hermite stage finds crossings on the field ([`crate::hermite`], with
-//! inverse quadratic steps where they land inside the bracket) and the checker
-//! finds the surface it measures against ([`crate::validate()`]).
+//! as the Hermite stage finds crossings on the field ([`crate::hermite`]) and
+//! the checker finds the surface it measures against ([`crate::validate()`]).
 //! Each caller runs its own loop (what it evaluates, when it stops); the
 //! bracket and its steps are this one.
 
@@ -18,12 +17,6 @@ pub(crate) struct Bracket {
     /// Which end moved last (-1 low, 1 high): a second move of the same end
     /// halves the other end's value (the Illinois step).
     side: i8,
-    /// The ends' values as evaluated (the Illinois step halves `f0`, `f1`).
-    g0: f32,
-    g1: f32,
-    /// The end the last narrowing replaced, with its value: with the two
-    /// ends, the three points of [`Bracket::interpolate`].
-    replaced: Option<(f32, f32)>,
 }
 
 impl Bracket {
@@ -35,33 +28,7 @@ impl Bracket {
             t1: 1.0,
             f1,
             side: 0,
-            g0: f0,
-            g1: f1,
-            replaced: None,
         }
-    }
-
-    /// The next point to evaluate: the inverse quadratic interpolation of the
-    /// ends and the end last replaced (the field's values, not the Illinois
-    /// step's), where it lands strictly inside the bracket; the false-position
-    /// point otherwise. On a smooth field one evaluation past the first secant
-    /// usually lands within tolerance, where false position takes three.
-    pub(crate) fn interpolate(&self) -> f32 {
-        if let Some((tc, fc)) = self.replaced {
-            let (a, fa) = (self.t0 as f64, self.g0 as f64);
-            let (b, fb) = (self.t1 as f64, self.g1 as f64);
-            let (c, fc) = (tc as f64, fc as f64);
-            if fa != fb && fa != fc && fb != fc {
-                let t = a * fb * fc / ((fa - fb) * (fa - fc))
-                    + b * fa * fc / ((fb - fa) * (fb - fc))
-                    + c * fa * fb / ((fc - fa) * (fc - fb));
-                let t = t as f32;
-                if t > self.t0 && t < self.t1 {
-                    return t;
-                }
-            }
-        }
-        self.secant()
     }
 
     /// The false-position point of the bracket.
@@ -74,19 +41,15 @@ impl Bracket {
     /// change.
     pub(crate) fn narrow(&mut self, t: f32, ft: f32) {
         if (ft >= 0.0) == (self.f0 >= 0.0) {
-            self.replaced = Some((self.t0, self.g0));
             self.t0 = t;
             self.f0 = ft;
-            self.g0 = ft;
             if self.side == -1 {
                 self.f1 *= 0.5;
             }
             self.side = -1;
         } else {
-            self.replaced = Some((self.t1, self.g1));
             self.t1 = t;
             self.f1 = ft;
-            self.g1 = ft;
             if self.side == 1 {
                 self.f0 *= 0.5;
             }

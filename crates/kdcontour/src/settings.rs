@@ -21,7 +21,7 @@ pub struct Settings {
     /// Refuse grids, and worlds (all their chunks together), whose build would
     /// need more bytes than this (default [`Budget::DEFAULT`], 4 GiB).
     pub memory_budget: Budget,
-    /// Most root-search steps that refine each edge crossing on the field
+    /// Most Illinois false-position steps that refine each edge crossing on the field
     /// (0 = linear interpolation only, right for sampled volumes); each edge stops
     /// early once |f| < 1e-5 cells. Linear interpolation is exact where the field is
     /// planar along the edge, but near a box corner the SDF has a kink: on `box` at

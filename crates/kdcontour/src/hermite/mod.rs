@@ -1,6 +1,6 @@
 //! Hermite data (section 3): corner samples, active cells with their Dual Marching
 //! Cubes components, and for every edge with a sign change its crossing (found on
-//! the field by a bracketed root search, not just interpolated) and the unit normal there.
+//! the field by false position, not just interpolated) and the unit normal there.
 //!
 //! Positions are in grid units. A NaN or infinite sample is an error, never a mesh.
 
