@@ -46,6 +46,13 @@ impl<'a> Facing<'a> {
         }
     }
 
+    /// The same test reading the field for triangles more than `degrees` from
+    /// one of their vertices' normals (instead of [`FIELD_CHECK_DEGREES`]).
+    pub fn with_field_check_degrees(mut self, degrees: f32) -> Self {
+        self.check_cos2 = (degrees as f64).to_radians().cos().powi(2);
+        self
+    }
+
     /// The same test with the smallest area a triangle may have `factor` times
     /// larger.
     pub fn with_area_margin(mut self, factor: f64) -> Self {

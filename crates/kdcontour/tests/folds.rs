@@ -574,3 +574,32 @@ fn a_scan_has_no_zero_area_or_overlapping_face() {
         assert!(i.crossing_triangles < 100, "e {e}: {i:?}");
     }
 }
+
+/// A merged leaf's triangle close to its vertices' normals can still be
+/// flipped against the field where the field turns fast between them (a thin
+/// plate's crease): the fold guard reads the field for merged triangles more
+/// than 45 degrees from a vertex normal (cells: 60). At 60, `thin_plates` in
+/// this world of 16-cell chunks at levels 0 to 2 had a flipped face inside a
+/// chunk at threshold 1.
+#[test]
+fn merged_triangles_that_stray_from_their_normals_are_held_to_the_field() {
+    let scene = scenes::scene("thin_plates").unwrap();
+    let (region, res) = (8, 16u32);
+    let cell = 2.0 / (region as u32 * res) as f32;
+    let layout = Layout::random(glam::IVec3::ZERO, glam::IVec3::splat(region), 2, 0.3, 3).unwrap();
+    let mut w = World::new(
+        Vec3::splat(-1.0),
+        cell,
+        res,
+        layout,
+        1.0,
+        Settings::default(),
+    )
+    .unwrap();
+    w.build_all(&*scene.field).unwrap();
+    let mut one = IndexedMesh::default();
+    for k in w.chunks() {
+        w.extract_interior(&k, &mut one);
+        assert_interior_clean(&one, &*scene.field, cell, &format!("thin_plates {k:?}"));
+    }
+}

@@ -63,6 +63,10 @@ use rayon::prelude::*;
 /// only `box` at 48 changes.
 const AREA_MARGIN: f64 = 4.0;
 
+/// The guard reads the field for a merged leaf's triangle more than this
+/// many degrees from one of its vertices' normals (cells: 60).
+const GUARD_CHECK_DEGREES: f32 = 45.0;
+
 /// Quadrants around an edge, as in `contour.rs` (counter-clockwise about +d).
 const QUADRANT: [(u32, u32); 4] = [(0, 0), (1, 0), (1, 1), (0, 1)];
 
@@ -116,7 +120,9 @@ pub(super) fn refuse_folding_leaves(
     if tree.root == NONE {
         return 0;
     }
-    let test = &Facing::new(surface, &tree.grid).with_area_margin(AREA_MARGIN);
+    let test = &Facing::new(surface, &tree.grid)
+        .with_area_margin(AREA_MARGIN)
+        .with_field_check_degrees(GUARD_CHECK_DEGREES);
     let edges = crossing_edges(tree);
     let h = &Links::new(tree, h, coarser);
     // The first pass visits every edge and learns its four cells; later ones only
