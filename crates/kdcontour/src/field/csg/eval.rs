@@ -114,11 +114,7 @@ impl Node {
                 }
                 r
             }
-            Op::SmoothIntersection(k, ch) => neg(ch
-                .iter()
-                .map(|c| neg(c.eval(p)))
-                .reduce(|a, b| smin(a, b, *k))
-                .unwrap()),
+            Op::SmoothIntersection(k, ch) => smooth_intersection_eval(*k, ch, p),
             Op::SmoothDifference(k, a, b) => {
                 let a = neg(a.eval(p));
                 if let Some(bb) = b.bound {
@@ -287,6 +283,22 @@ fn intersection_eval(ch: &[Node], p: Vec3) -> (f32, Vec3) {
     best
 }
 
+/// The smooth intersection of `ch` over radius `k` at `p`, value and
+/// gradient: a child at least `k` below the running value leaves it as it is
+/// (see `smin`), which a noise terrain's bound can prove without reading it.
+/// Out of [`Node::eval`]'s body, as [`intersection_value`].
+#[inline(never)]
+fn smooth_intersection_eval(k: f32, ch: &[Node], p: Vec3) -> (f32, Vec3) {
+    let (first, rest) = ch.split_first().expect("checked: a child at least");
+    let mut r = neg(first.eval(p));
+    for c in rest {
+        if !c.surely_below(p, -r.0 - k) {
+            r = smin(r, neg(c.eval(p)), k);
+        }
+    }
+    neg(r)
+}
+
 /// Whether `op`'s subtree is an exact distance bound (no noise terrain in it).
 fn exact(op: &Op) -> bool {
     match op {
@@ -393,11 +405,11 @@ impl Field for Csg {
 }
 
 /// Trees whose height fields another child often decides (a box closing the
-/// terrain, a union with a sphere, a difference, a transformed and a flat
-/// height field, one read first), for the tests that skipping a noise
-/// changes no bit.
+/// terrain, sharp and smooth, a union with a sphere, a difference, a
+/// transformed and a flat height field, one read first), for the tests that
+/// skipping a noise changes no bit.
 #[cfg(test)]
-pub(super) const TERRAIN_SCENES: [&str; 6] = [
+pub(super) const TERRAIN_SCENES: [&str; 7] = [
     r#"{"type":"intersection","children":[{"type":"box","half_extents":[0.85,0.85,0.85]},
         {"type":"heightfield","seed":3,"base":0.0,"amplitude":0.35,"frequency":1.5,"octaves":5}]}"#,
     r#"{"type":"intersection","children":[
@@ -412,6 +424,8 @@ pub(super) const TERRAIN_SCENES: [&str; 6] = [
          "child":{"type":"material","id":7,"child":{"type":"heightfield","seed":2,"base":0.0,"amplitude":0.2,"frequency":1.0,"octaves":5}}}]}"#,
     r#"{"type":"intersection","children":[{"type":"sphere","radius":0.8},
         {"type":"heightfield","seed":4,"base":0.1,"amplitude":0.0,"frequency":1.0,"octaves":3}]}"#,
+    r#"{"type":"smooth_intersection","radius":0.08,"children":[{"type":"box","half_extents":[0.8,0.8,0.8]},
+        {"type":"material","id":6,"child":{"type":"heightfield","seed":3,"base":0.0,"amplitude":0.3,"frequency":1.5,"octaves":5}}]}"#,
 ];
 
 #[cfg(test)]
@@ -427,14 +441,16 @@ mod tests {
     #[test]
     fn noise_children_stop_where_another_child_decides_and_change_no_bit() {
         use super::{above, nan_max, neg, Op};
-        let mut decided = 0;
+        let (mut decided, mut smooth_skips) = (0, 0);
         for json in super::TERRAIN_SCENES {
             let f = CsgNode::from_json(json).unwrap().compile().unwrap();
             // Each child compiled alone: read whole.
             let alone = |n: &CsgNode| n.compile().unwrap();
             let node = CsgNode::from_json(json).unwrap();
             let parts: Vec<_> = match &node {
-                CsgNode::Intersection { children } | CsgNode::Union { children } => {
+                CsgNode::Intersection { children }
+                | CsgNode::Union { children }
+                | CsgNode::SmoothIntersection { children, .. } => {
                     children.iter().map(alone).collect()
                 }
                 CsgNode::Difference { a, b } => vec![alone(a), alone(b)],
@@ -466,6 +482,11 @@ mod tests {
                             each[0]
                         }
                     }
+                    Op::SmoothIntersection(k, _) => neg(each
+                        .iter()
+                        .map(|c| neg(*c))
+                        .reduce(|a, b| super::smin(a, b, *k))
+                        .unwrap()),
                     _ => unreachable!(),
                 };
                 let got = f.root.eval(p);
@@ -476,6 +497,7 @@ mod tests {
                     "{json}: gradient at {p}"
                 );
                 let value = match &f.root.op {
+                    Op::SmoothIntersection(..) => want.0,
                     Op::Intersection(_) => {
                         each.iter().fold(f32::NEG_INFINITY, |a, b| nan_max(a, b.0))
                     }
@@ -494,12 +516,18 @@ mod tests {
                 // (the height field, at many points) need not be read whole.
                 decided +=
                     usize::from(each.iter().any(|c| (c.0.abs() - want.0.abs()).abs() > 0.03));
+                // The smooth intersection's terrain, skipped by its bound
+                // alone where the box is more than the radius above it.
+                if let Op::SmoothIntersection(k, ch) = &f.root.op {
+                    smooth_skips += usize::from(ch[1].surely_below(p, each[0].0 - k));
+                }
             }
         }
         assert!(
             decided > 10_000,
             "points where another child decides: {decided}"
         );
+        assert!(smooth_skips > 500, "smooth skips: {smooth_skips}");
     }
 
     /// Skipping far children of a smooth union (and a smooth difference's far

@@ -53,13 +53,6 @@ impl Node {
     /// node, otherwise material 0 for primitives and the terrain's own.
     pub(super) fn material(&self, p: Vec3, given: Option<u8>) -> (f32, MaterialBlend) {
         let own = MaterialBlend::single(given.unwrap_or(0));
-        fn all(
-            ch: &[Node],
-            p: Vec3,
-            given: Option<u8>,
-        ) -> impl Iterator<Item = (f32, MaterialBlend)> + '_ {
-            ch.iter().map(move |c| c.material(p, given))
-        }
         match &self.op {
             Op::Prim(..) => (self.value(p), own),
             // Unions and differences skip the children whose bound proves they
@@ -125,10 +118,16 @@ impl Node {
                 }
                 r
             }
-            Op::SmoothIntersection(k, ch) => neg(all(ch, p, given)
-                .map(neg)
-                .reduce(|a, b| smin_material(a, b, *k))
-                .expect("checked: at least one child")),
+            Op::SmoothIntersection(k, ch) => {
+                let (first, rest) = ch.split_first().expect("checked: a child at least");
+                let mut r = neg(first.material(p, given));
+                for c in rest {
+                    if !c.surely_below(p, -r.0 - *k) {
+                        r = smin_material(r, neg(c.material(p, given)), *k);
+                    }
+                }
+                neg(r)
+            }
             Op::SmoothDifference(k, a, b) => {
                 let a = neg(a.material(p, given));
                 if let Some(bb) = b.bound {
@@ -229,6 +228,11 @@ mod tests {
                 .into_iter()
                 .reduce(|a, b| winner(a, b, nan_max))
                 .unwrap(),
+            Op::SmoothIntersection(k, ch) => neg(all(ch)
+                .into_iter()
+                .map(neg)
+                .reduce(|a, b| smin_material(a, b, *k))
+                .unwrap()),
             Op::Material(id, c) => every_child(c, p, Some(*id)),
             _ => n.material(p, given),
         }
