@@ -61,9 +61,8 @@ pub(super) struct Node {
 /// where its parts have them. Unions and differences skip children whose bounding
 /// sphere proves they cannot change the result, and a noise terrain in a union,
 /// intersection, smooth intersection or difference is read only until the
-/// other side decides (its
-/// amplitude, then each octave of a height field's noise, bounds its value):
-/// the result is reading every child's, bit for bit.
+/// other side decides (its amplitude, then each octave of a height field's
+/// noise, bounds its value): the result is reading every child's, bit for bit.
 pub struct Csg {
     pub(super) root: Node,
     /// Whether [`Node::eval`] costs about what [`Node::value`] does: no 3-D
