@@ -60,8 +60,8 @@ pub(super) struct Node {
 /// A compiled CSG tree; a [`Field`](crate::field::Field) with analytic gradients
 /// where its parts have them. Unions and differences skip children whose bounding
 /// sphere proves they cannot change the result, and a noise terrain in a union,
-/// intersection, smooth intersection or difference is read only until the
-/// other side decides (its amplitude, then each octave of a height field's
+/// intersection or difference, smooth or not, is read only until the other
+/// side decides (its amplitude, then each octave of a height field's
 /// noise, bounds its value): the result is reading every child's, bit for bit.
 pub struct Csg {
     pub(super) root: Node,

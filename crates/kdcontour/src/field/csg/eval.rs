@@ -110,6 +110,10 @@ impl Node {
                             continue;
                         }
                     }
+                    // A noise terrain's bound can prove it too.
+                    if c.surely_above(p, r.0 + *k) {
+                        continue;
+                    }
                     r = smin(r, c.eval(p), *k);
                 }
                 r
@@ -121,6 +125,9 @@ impl Node {
                     if bb.lower(p) >= a.0 + *k {
                         return neg(a);
                     }
+                }
+                if b.surely_above(p, a.0 + *k) {
+                    return neg(a);
                 }
                 neg(smin(a, b.eval(p), *k))
             }
@@ -405,11 +412,11 @@ impl Field for Csg {
 }
 
 /// Trees whose height fields another child often decides (a box closing the
-/// terrain, sharp and smooth, a union with a sphere, a difference, a
+/// terrain, sharp and smooth, unions and differences, sharp and smooth, a
 /// transformed and a flat height field, one read first), for the tests that
 /// skipping a noise changes no bit.
 #[cfg(test)]
-pub(super) const TERRAIN_SCENES: [&str; 7] = [
+pub(super) const TERRAIN_SCENES: [&str; 9] = [
     r#"{"type":"intersection","children":[{"type":"box","half_extents":[0.85,0.85,0.85]},
         {"type":"heightfield","seed":3,"base":0.0,"amplitude":0.35,"frequency":1.5,"octaves":5}]}"#,
     r#"{"type":"intersection","children":[
@@ -426,6 +433,10 @@ pub(super) const TERRAIN_SCENES: [&str; 7] = [
         {"type":"heightfield","seed":4,"base":0.1,"amplitude":0.0,"frequency":1.0,"octaves":3}]}"#,
     r#"{"type":"smooth_intersection","radius":0.08,"children":[{"type":"box","half_extents":[0.8,0.8,0.8]},
         {"type":"material","id":6,"child":{"type":"heightfield","seed":3,"base":0.0,"amplitude":0.3,"frequency":1.5,"octaves":5}}]}"#,
+    r#"{"type":"smooth_union","radius":0.1,"children":[{"type":"material","id":2,"child":{"type":"sphere","radius":0.3,"center":[0,0.55,0]}},
+        {"type":"heightfield","seed":7,"base":0.0,"amplitude":0.25,"frequency":1.2,"octaves":4}]}"#,
+    r#"{"type":"smooth_difference","radius":0.06,"a":{"type":"box","half_extents":[0.8,0.8,0.8]},
+        "b":{"type":"material","id":3,"child":{"type":"heightfield","seed":5,"base":-0.2,"amplitude":0.3,"frequency":2.0,"octaves":6}}}"#,
 ];
 
 #[cfg(test)]
@@ -441,7 +452,9 @@ mod tests {
     #[test]
     fn noise_children_stop_where_another_child_decides_and_change_no_bit() {
         use super::{above, nan_max, neg, Op};
-        let (mut decided, mut smooth_skips) = (0, 0);
+        // Points where a smooth intersection, union or difference skips its
+        // terrain by the bound alone.
+        let (mut decided, mut smooth_skips) = (0, [0usize; 3]);
         for json in super::TERRAIN_SCENES {
             let f = CsgNode::from_json(json).unwrap().compile().unwrap();
             // Each child compiled alone: read whole.
@@ -450,10 +463,11 @@ mod tests {
             let parts: Vec<_> = match &node {
                 CsgNode::Intersection { children }
                 | CsgNode::Union { children }
-                | CsgNode::SmoothIntersection { children, .. } => {
-                    children.iter().map(alone).collect()
+                | CsgNode::SmoothIntersection { children, .. }
+                | CsgNode::SmoothUnion { children, .. } => children.iter().map(alone).collect(),
+                CsgNode::Difference { a, b } | CsgNode::SmoothDifference { a, b, .. } => {
+                    vec![alone(a), alone(b)]
                 }
-                CsgNode::Difference { a, b } => vec![alone(a), alone(b)],
                 _ => unreachable!("the scenes are booleans"),
             };
             for i in 0..4000u32 {
@@ -487,6 +501,12 @@ mod tests {
                         .map(|c| neg(*c))
                         .reduce(|a, b| super::smin(a, b, *k))
                         .unwrap()),
+                    Op::SmoothUnion(k, _) => each
+                        .iter()
+                        .copied()
+                        .reduce(|a, b| super::smin(a, b, *k))
+                        .unwrap(),
+                    Op::SmoothDifference(k, ..) => neg(super::smin(neg(each[0]), each[1], *k)),
                     _ => unreachable!(),
                 };
                 let got = f.root.eval(p);
@@ -497,7 +517,9 @@ mod tests {
                     "{json}: gradient at {p}"
                 );
                 let value = match &f.root.op {
-                    Op::SmoothIntersection(..) => want.0,
+                    Op::SmoothIntersection(..) | Op::SmoothUnion(..) | Op::SmoothDifference(..) => {
+                        want.0
+                    }
                     Op::Intersection(_) => {
                         each.iter().fold(f32::NEG_INFINITY, |a, b| nan_max(a, b.0))
                     }
@@ -516,18 +538,25 @@ mod tests {
                 // (the height field, at many points) need not be read whole.
                 decided +=
                     usize::from(each.iter().any(|c| (c.0.abs() - want.0.abs()).abs() > 0.03));
-                // The smooth intersection's terrain, skipped by its bound
-                // alone where the box is more than the radius above it.
-                if let Op::SmoothIntersection(k, ch) = &f.root.op {
-                    smooth_skips += usize::from(ch[1].surely_below(p, each[0].0 - k));
-                }
+                // A smooth boolean's terrain, skipped by its bound alone
+                // where the other side is more than the radius past it.
+                let (kind, skipped) = match &f.root.op {
+                    Op::SmoothIntersection(k, ch) => (0, ch[1].surely_below(p, each[0].0 - k)),
+                    Op::SmoothUnion(k, ch) => (1, ch[1].surely_above(p, each[0].0 + k)),
+                    Op::SmoothDifference(k, _, b) => (2, b.surely_above(p, -each[0].0 + k)),
+                    _ => (0, false),
+                };
+                smooth_skips[kind] += usize::from(skipped);
             }
         }
         assert!(
             decided > 10_000,
             "points where another child decides: {decided}"
         );
-        assert!(smooth_skips > 500, "smooth skips: {smooth_skips}");
+        assert!(
+            smooth_skips.iter().all(|&n| n > 300),
+            "smooth skips: {smooth_skips:?}"
+        );
     }
 
     /// Skipping far children of a smooth union (and a smooth difference's far

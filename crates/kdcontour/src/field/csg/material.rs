@@ -114,6 +114,10 @@ impl Node {
                             continue;
                         }
                     }
+                    // A noise terrain's bound can prove it too.
+                    if c.surely_above(p, r.0 + *k) {
+                        continue;
+                    }
                     r = smin_material(r, c.material(p, given), *k);
                 }
                 r
@@ -134,6 +138,9 @@ impl Node {
                     if bb.lower(p) >= a.0 + *k {
                         return neg(a);
                     }
+                }
+                if b.surely_above(p, a.0 + *k) {
+                    return neg(a);
                 }
                 neg(smin_material(a, b.material(p, given), *k))
             }
