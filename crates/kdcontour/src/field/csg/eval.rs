@@ -105,13 +105,7 @@ impl Node {
                 let (first, rest) = ch.split_first().expect("checked: a child at least");
                 let mut r = first.eval(p);
                 for c in rest {
-                    if let Some(b) = c.bound {
-                        if b.lower(p) >= r.0 + *k {
-                            continue;
-                        }
-                    }
-                    // A noise terrain's bound can prove it too.
-                    if c.surely_above(p, r.0 + *k) {
+                    if c.blends_nothing(p, r.0 + *k) {
                         continue;
                     }
                     r = smin(r, c.eval(p), *k);
@@ -121,12 +115,7 @@ impl Node {
             Op::SmoothIntersection(k, ch) => smooth_intersection_eval(*k, ch, p),
             Op::SmoothDifference(k, a, b) => {
                 let a = neg(a.eval(p));
-                if let Some(bb) = b.bound {
-                    if bb.lower(p) >= a.0 + *k {
-                        return neg(a);
-                    }
-                }
-                if b.surely_above(p, a.0 + *k) {
+                if b.blends_nothing(p, a.0 + *k) {
                     return neg(a);
                 }
                 neg(smin(a, b.eval(p), *k))
@@ -250,6 +239,15 @@ impl Node {
             Op::Material(_, child) => child.value_unless_below(p, v),
             _ => (!self.surely_below(p, v)).then(|| self.value(p)),
         }
+    }
+
+    /// Whether a smooth union (or difference) at `v`, the running value plus
+    /// the blend radius, need not read this node: its bounding sphere or its
+    /// noise's bound puts it at `v` or above, where the blend is the running
+    /// value exactly (see `smin`).
+    #[inline]
+    pub(super) fn blends_nothing(&self, p: Vec3, v: f32) -> bool {
+        self.bound.is_some_and(|b| b.lower(p) >= v) || self.surely_above(p, v)
     }
 
     /// Whether the value at `p` is surely above `v` (so a union already at

@@ -109,13 +109,7 @@ impl Node {
                 let (first, rest) = ch.split_first().expect("checked: a child at least");
                 let mut r = first.material(p, given);
                 for c in rest {
-                    if let Some(b) = c.bound {
-                        if b.lower(p) >= r.0 + *k {
-                            continue;
-                        }
-                    }
-                    // A noise terrain's bound can prove it too.
-                    if c.surely_above(p, r.0 + *k) {
+                    if c.blends_nothing(p, r.0 + *k) {
                         continue;
                     }
                     r = smin_material(r, c.material(p, given), *k);
@@ -134,12 +128,7 @@ impl Node {
             }
             Op::SmoothDifference(k, a, b) => {
                 let a = neg(a.material(p, given));
-                if let Some(bb) = b.bound {
-                    if bb.lower(p) >= a.0 + *k {
-                        return neg(a);
-                    }
-                }
-                if b.surely_above(p, a.0 + *k) {
+                if b.blends_nothing(p, a.0 + *k) {
                     return neg(a);
                 }
                 neg(smin_material(a, b.material(p, given), *k))
