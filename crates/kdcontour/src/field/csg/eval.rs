@@ -23,7 +23,7 @@ fn smin(a: (f32, Vec3), b: (f32, Vec3), k: f32) -> (f32, Vec3) {
 }
 
 /// [`smin`]'s value alone, bit for bit (the same operations on the values).
-fn smin_value(a: f32, b: f32, k: f32) -> f32 {
+pub(super) fn smin_value(a: f32, b: f32, k: f32) -> f32 {
     let h = smin_weight(a, b, k);
     if h == 1.0 {
         a
