@@ -1,5 +1,6 @@
 //! Batched grid sampling: a height field under unions, intersections and
-//! differences is evaluated once per (x, z) column instead of once per corner,
+//! differences, smooth or not, is evaluated once per (x, z) column instead of
+//! once per corner,
 //! and a density terrain row by row (its own sampler, which shares each row's
 //! lattice work and stops its octaves in the sky), with the very same values as
 //! [`Node::value`]. The build's far sampling ([`Node::sample_far`]) skips the
