@@ -615,24 +615,36 @@ mod tests {
         );
     }
 
-    /// Skipping far children of a smooth union (and a smooth difference's far
-    /// `b`) changes no bit of the value or gradient: the pruned tree equals the
-    /// plain left fold of every child.
-    #[test]
-    fn smooth_unions_skip_far_children_exactly() {
-        let children: Vec<String> = (0..60)
+    /// `n` spheres (JSON) of radius `radius(i)` along a Lissajous curve:
+    /// sphere `i` at `(sin t, cos(fy t), sin(fz t)) * scale`, `t = i * step`.
+    fn scattered_spheres(
+        n: usize,
+        step: f32,
+        [fy, fz]: [f32; 2],
+        scale: f32,
+        radius: impl Fn(usize) -> f32,
+    ) -> Vec<String> {
+        (0..n)
             .map(|i| {
-                let t = i as f32 * 0.9;
-                let c = Vec3::new(t.sin(), (1.3 * t).cos(), (0.7 * t).sin()) * 0.8;
+                let t = i as f32 * step;
+                let c = Vec3::new(t.sin(), (fy * t).cos(), (fz * t).sin()) * scale;
                 format!(
                     r#"{{"type":"sphere","radius":{},"center":[{},{},{}]}}"#,
-                    0.05 + 0.002 * i as f32,
+                    radius(i),
                     c.x,
                     c.y,
                     c.z
                 )
             })
-            .collect();
+            .collect()
+    }
+
+    /// Skipping far children of a smooth union (and a smooth difference's far
+    /// `b`) changes no bit of the value or gradient: the pruned tree equals the
+    /// plain left fold of every child.
+    #[test]
+    fn smooth_unions_skip_far_children_exactly() {
+        let children = scattered_spheres(60, 0.9, [1.3, 0.7], 0.8, |i| 0.05 + 0.002 * i as f32);
         let k = 0.04;
         let union = CsgNode::from_json(&format!(
             r#"{{"type":"smooth_union","radius":{k},"children":[{}]}}"#,
@@ -688,16 +700,7 @@ mod tests {
     /// points in and around every tree, blends and skips both met.
     #[test]
     fn smooth_values_are_the_values_of_eval() {
-        let spheres: Vec<String> = (0..300)
-            .map(|i| {
-                let t = i as f32 * 0.77;
-                let c = Vec3::new(t.sin(), (1.7 * t).cos(), (0.3 * t).sin()) * 0.9;
-                format!(
-                    r#"{{"type":"sphere","radius":0.06,"center":[{},{},{}]}}"#,
-                    c.x, c.y, c.z
-                )
-            })
-            .collect();
+        let spheres = scattered_spheres(300, 0.77, [1.7, 0.3], 0.9, |_| 0.06);
         let hf = r#"{"type":"heightfield","seed":3,"base":0.0,"amplitude":0.35,"frequency":1.5,"octaves":5}"#;
         let density = r#"{"type":"density","seed":11,"base":0.1,"amplitude":0.3,"frequency":1.8,"octaves":4,
              "caves":{"frequency":2.0,"radius":0.12}}"#;
