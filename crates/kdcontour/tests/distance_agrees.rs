@@ -241,8 +241,8 @@ fn agrees_on_volume(segmented: bool) {
 ///   farthest surface points are sub-cell peaks of its noisy surface, which a
 ///   lattice a third of a cell apart misses. The cells nearest the maximum are
 ///   sampled again twelve times finer: 0.465 against 0.483; with cell vertices
-///   held on a cell corner started at their mass point, the farthest peak moved
-///   to a cell whose coarser lattice saw under 0.7 of the maximum (0.392
+///   held on a cell corner moved to their mass point first, the farthest peak
+///   moved to a cell whose coarser lattice saw under 0.7 of the maximum (0.392
 ///   against 0.459); cells down to half of it are sampled finer now: 0.436;
 /// - on `box` at 0.1 the brute force's own reference, a uniform mesh four times
 ///   finer, was 0.04 cells off at the box's corners, too coarse for the
