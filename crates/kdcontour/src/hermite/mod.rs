@@ -277,6 +277,7 @@ impl Hermite {
             &p.quads,
             &Facing::new(surface.field(), grid),
             &p.fixed,
+            grid.cells,
         );
         drop(p.quads);
         let (cell_material, cell_border) =
