@@ -197,7 +197,7 @@ pub(super) fn cell_vertices(
     // The patches held on a corner of their cell, and those held on an edge
     // of it that do not fit their planes there, away from the grid's sides: a
     // first round moves them to their mass points (see the module docs).
-    let mut corner_round: Vec<u32> = (0..own as u32)
+    let mut held_round: Vec<u32> = (0..own as u32)
         .filter(|&p| {
             let (v, l) = (vertex[p as usize], lo(p as usize));
             let held = (0..3)
@@ -215,19 +215,19 @@ pub(super) fn cell_vertices(
                 })
         })
         .collect();
-    let first_round = !corner_round.is_empty();
+    let first_round = !held_round.is_empty();
     for round in 0..MAX_ROUNDS + first_round as usize {
-        // The corner round: each patch takes its last step at once; one
+        // The first round: each held patch takes its last step at once; one
         // taken back starts over (it may still step as others do).
         let zero = first_round && round == 0;
         if zero {
-            for &p in &corner_round {
+            for &p in &held_round {
                 step[p as usize] = STEPS - 1;
             }
         }
         let folds = |q: &DualQuad| !quad_faces(q, &rounded, &unit, facing);
         let mut moving: Vec<u32> = if zero {
-            std::mem::take(&mut corner_round)
+            std::mem::take(&mut held_round)
         } else {
             match &dirty {
                 None => quads
