@@ -74,6 +74,20 @@ pub struct KdContourSettings {
     pub undo_steps: usize,
 }
 
+impl KdContourSettings {
+    /// The lowest threshold these settings cut a chunk at: the default
+    /// threshold, or the LOD curve's lowest when the camera drives thresholds
+    /// and that is finer (extras, a collider's, may cap chunks finer still).
+    pub fn lowest_threshold(&self) -> f32 {
+        let curve = if self.lod.enabled {
+            self.lod.base.min(self.lod.max)
+        } else {
+            f32::INFINITY
+        };
+        self.default_threshold.min(curve)
+    }
+}
+
 impl Default for KdContourSettings {
     fn default() -> Self {
         KdContourSettings {

@@ -286,6 +286,35 @@ impl VolumeState {
             .reduce(f32::min)
     }
 
+    /// The lowest threshold this volume's chunks can be cut at with
+    /// `settings`: the settings' ([`crate::KdContourSettings::lowest_threshold`]) or
+    /// an extra's cap, if finer.
+    pub(crate) fn lowest_threshold(&self, settings: &crate::KdContourSettings) -> f32 {
+        self.extras
+            .iter()
+            .filter_map(|e| e.as_ref().and_then(|e| e.on))
+            .fold(settings.lowest_threshold(), f32::min)
+    }
+
+    /// Builds trees from now on for cuts no lower than `floor`
+    /// ([`kdcontour::Settings::min_threshold`]: a lower cut is the cut at it).
+    /// When it went down, every loaded chunk's tree, built for a higher one,
+    /// is built again, so no chunk is cut coarser than it asks.
+    pub(crate) fn cut_no_lower_than(&mut self, floor: f32) {
+        let old = self.world.settings.min_threshold;
+        if old.to_bits() == floor.to_bits() {
+            return;
+        }
+        self.world.settings.min_threshold = floor;
+        if floor < old {
+            let mut all: Vec<ChunkKey> = self.slots.keys().copied().collect();
+            all.sort_by_key(|c| c.order());
+            for c in &all {
+                self.mark_build(c);
+            }
+        }
+    }
+
     /// Whether the extra `kind` is set.
     #[cfg_attr(not(any(feature = "avian", feature = "navmesh")), allow(dead_code))]
     pub(crate) fn has_extra(&self, kind: ExtraKind) -> bool {

@@ -208,9 +208,13 @@ fn a_flight_with_edits_keeps_the_horizon_whole_and_loses_nothing() {
     let ring = 1.0; // level-0 chunks out to 2 * RES cells
     let widths = kdcontour::world::Layout::around_reach(ring) + 2.0;
     assert_eq!(limit, lod.curve().threshold(widths * RES as f32));
+    // ... and no lower than the lowest it asks: the curve's base here.
+    assert_eq!(world.settings.min_threshold, lod.base);
     for (k, _) in state.shown_chunks() {
         if let Some(tree) = world.tree(&k) {
             assert_eq!(tree.max_threshold(), limit, "{k:?}");
+            assert_eq!(tree.min_threshold(), lod.base, "{k:?}");
+            assert!(world.threshold(&k) >= lod.base, "{k:?}");
         }
     }
     let field = app.world().get::<VolumeState>(v).unwrap().field().clone();

@@ -43,14 +43,24 @@ fn spawn(app: &mut App, field: Arc<dyn Field>) -> Entity {
 /// A from-scratch world of `field` at the thresholds `state` uses.
 fn fresh(field: &dyn Field, state: &VolumeState) -> World {
     let w = state.world();
+    // The lowest threshold the volume's trees were built for (one for all).
+    let lowest = w
+        .chunks()
+        .iter()
+        .filter_map(|k| w.tree(k).map(|t| t.min_threshold()))
+        .fold(w.settings.min_threshold, f32::min);
     let mut f = World::unbounded(
         Vec3::ZERO,
         w.cell_size,
         w.chunk_res,
         0.01,
-        // A volume with a plain material builds without the field's materials.
+        // A volume with a plain material builds without the field's materials;
+        // a streaming volume's trees are cut no lower than the lowest threshold
+        // it asks (below it the fold guard checks nothing, so the meshes at and
+        // above it are those of trees built for it, not of unlimited ones).
         kdcontour::Settings {
             materials: false,
+            min_threshold: lowest,
             ..Default::default()
         },
     )
@@ -368,13 +378,22 @@ fn streaming_terrain_loads_around_the_camera_and_drops_what_it_leaves() {
             .count();
         assert_eq!(n, have.len(), "one entity per loaded chunk");
         // Trees are built for the thresholds the LOD asks within the view (and
-        // no further), and show what trees with no limit show.
+        // no further, nor lower than its lowest), and show what trees with no
+        // largest threshold show.
         let state = app.world().get::<VolumeState>(v).unwrap();
         let limit = state.world().settings.max_threshold;
         assert!(limit.is_finite(), "the trees' limit is {limit}");
+        let floor = state.world().settings.min_threshold;
+        let settings = app.world().resource::<KdContourSettings>();
+        assert_eq!(floor, settings.lowest_threshold());
         for k in state.world().chunks() {
             let e = state.world().threshold(&k);
             assert!(e <= limit, "chunk {k:?} is cut at {e}, above {limit}");
+            assert!(e >= floor, "chunk {k:?} is cut at {e}, below {floor}");
+            if let Some(tree) = state.world().tree(&k) {
+                let lowest = tree.min_threshold();
+                assert!(lowest <= floor, "chunk {k:?}: a tree for {lowest}");
+            }
         }
         assert_matches_fresh(app, v, &*field);
         have
@@ -397,6 +416,30 @@ fn streaming_terrain_loads_around_the_camera_and_drops_what_it_leaves() {
     let second = check(&mut app, Vec3::new(63.0, 4.0, -2.0));
     assert!(second.iter().all(|c| c.x >= 4), "{second:?}");
     assert!(second.iter().any(|c| c.x >= 10));
+    // Lowering the lowest threshold the settings ask, at run time, builds the
+    // loaded trees again for it (no chunk is cut coarser than it asks);
+    // raising it keeps them (they serve the higher one too).
+    let lowest = |app: &App| {
+        let state = app.world().get::<VolumeState>(v).unwrap();
+        let w = state.world();
+        let mut m: Vec<f32> = w
+            .chunks()
+            .iter()
+            .filter_map(|k| w.tree(k).map(|t| t.min_threshold()))
+            .collect();
+        m.dedup();
+        m
+    };
+    assert_eq!(lowest(&app), vec![0.001]);
+    for (base, trees) in [(0.0002, 0.0002), (0.002, 0.0002)] {
+        app.world_mut().resource_mut::<KdContourSettings>().lod.base = base;
+        for _ in 0..3 {
+            app.update();
+        }
+        settle(&mut app, v);
+        check(&mut app, Vec3::new(63.0, 4.0, -2.0));
+        assert_eq!(lowest(&app), vec![trees], "base {base}");
+    }
 }
 
 #[test]

@@ -14,7 +14,10 @@
 //! A fifth argument `0` turns crisp material borders off, as the plugin's
 //! terrain demo does: `stages demo 32 50 1 0`. A sixth sets the largest
 //! threshold the tree is cut at (`Settings::max_threshold`), as the plugin's
-//! horizon volumes set it: `stages demo:3 32 50 1 0 0.2`.
+//! horizon volumes set it: `stages demo:3 32 50 1 0 0.2`. A seventh sets the
+//! smallest (`Settings::min_threshold`), as the plugin's streaming and horizon
+//! volumes set it to the lowest threshold they cut at: `stages chunk 32 30 1 1
+//! inf 0.01`.
 
 use kdcontour::pipeline::{self, Cells};
 use kdcontour::{hermite, scenes, Field, Grid, IndexedMesh, Settings};
@@ -75,10 +78,15 @@ fn main() {
         .next()
         .map(|s| s.parse().expect("max_threshold is a number"))
         .unwrap_or(f32::INFINITY);
+    let min_threshold: f32 = args
+        .next()
+        .map(|s| s.parse().expect("min_threshold is a number"))
+        .unwrap_or(f32::NEG_INFINITY);
     let settings = Settings {
         threads,
         material_borders,
         max_threshold,
+        min_threshold,
         ..Default::default()
     };
     let ms = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e3;

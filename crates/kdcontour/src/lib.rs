@@ -114,6 +114,9 @@
 //! - A tree built with [`Settings::max_threshold`] is cut at that threshold when
 //!   asked for a higher one: its mesh there keeps the error bound of the limit,
 //!   not of the coarser threshold asked, and has more triangles than it would.
+//! - A tree built with [`Settings::min_threshold`] is cut at that threshold when
+//!   asked for a lower one (full resolution too): its mesh there is the coarser
+//!   one, whose polygons the fold guard checked; lower cuts are not checked.
 //!
 //! Error thresholds are QEF residuals in squared cells (a sum over the crossings
 //! a vertex stands for), so a threshold means the same at every resolution.

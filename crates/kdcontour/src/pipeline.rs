@@ -102,7 +102,10 @@ pub(crate) fn tree_beside(
     let mut tree = build_in(
         h,
         field,
-        (settings.partition, settings.max_threshold),
+        (
+            settings.partition,
+            (settings.min_threshold, settings.max_threshold),
+        ),
         core,
         faces,
         coarser,

@@ -53,6 +53,14 @@ pub struct Settings {
     /// above it would have refused stay. A world whose chunks' thresholds stay
     /// below a known bound (camera levels) builds faster with it.
     pub max_threshold: f32,
+    /// The smallest threshold a tree is cut at (default: none,
+    /// `f32::NEG_INFINITY`). A cut asked for a lower one (full resolution's -1
+    /// too) is the cut at it, so the fold guard checks no polygon only a lower
+    /// cut shows and painting skips the components only such cuts reach. At
+    /// and above it every cut is checked as with no limit. A world whose
+    /// chunks are never cut finer than a known threshold (the LOD curve's
+    /// lowest, its colliders') builds faster with it.
+    pub min_threshold: f32,
 }
 
 impl Default for Settings {
@@ -66,6 +74,7 @@ impl Default for Settings {
             material_borders: true,
             materials: true,
             max_threshold: f32::INFINITY,
+            min_threshold: f32::NEG_INFINITY,
         }
     }
 }
@@ -98,6 +107,21 @@ impl Settings {
             return Err(Error::InvalidSetting {
                 name: "max_threshold",
                 reason: "NaN: give a number (f32::INFINITY for no limit)".into(),
+            });
+        }
+        if self.min_threshold.is_nan() {
+            return Err(Error::InvalidSetting {
+                name: "min_threshold",
+                reason: "NaN: give a number (f32::NEG_INFINITY for no limit)".into(),
+            });
+        }
+        if self.min_threshold > self.max_threshold {
+            return Err(Error::InvalidSetting {
+                name: "min_threshold",
+                reason: format!(
+                    "{} is above max_threshold ({}): no threshold is left to cut at",
+                    self.min_threshold, self.max_threshold
+                ),
             });
         }
         Ok(())

@@ -147,6 +147,77 @@ fn a_largest_threshold_keeps_the_meshes_below_it_and_caps_the_cuts_above() {
     assert!(err.to_string().contains("max_threshold"), "{err}");
 }
 
+/// A tree built with a smallest threshold (`Settings::min_threshold`) gives
+/// below it the mesh at it (full resolution too): the fold guard checks no
+/// polygon only a lower cut shows, so no cut is one it did not check, and
+/// clean scenes stay clean at every threshold; every vertex carries the
+/// field's material. At and above it the guard checks every cut as without
+/// the limit: only merges that a fold below it refused stay, so meshes there
+/// have at most the triangles of a tree built without it.
+#[test]
+fn a_smallest_threshold_keeps_the_meshes_above_it_and_lifts_the_cuts_below() {
+    let limit = 0.01;
+    let mut fewer = 0;
+    for name in [
+        "gyroid",
+        "csg_mix",
+        "thin_plates",
+        "terrain",
+        "caves",
+        "box",
+    ] {
+        let scene = scenes::scene(name).unwrap();
+        let field = &*scene.field;
+        let grid = Grid::cube(1.0, 32);
+        let unlimited = KdTree::build(field, &grid, &Settings::default()).unwrap();
+        let limited = Settings {
+            min_threshold: limit,
+            ..Settings::default()
+        };
+        let tree = KdTree::build(field, &grid, &limited).unwrap();
+        assert_eq!(tree.min_threshold(), limit);
+        assert_eq!(unlimited.min_threshold(), f32::NEG_INFINITY);
+        let at_limit = tree.mesh(limit);
+        for e in [-1.0, 0.0, 0.001, limit.next_down()] {
+            assert!(tree.mesh(e) == at_limit, "{name} at {e}");
+        }
+        // The lift is a real one: without it full resolution has more.
+        assert!(
+            unlimited.mesh(-1.0).triangle_count() > at_limit.triangle_count(),
+            "{name}"
+        );
+        for e in [limit, 0.02, 0.1, 1.0] {
+            let (a, b) = (tree.mesh(e), unlimited.mesh(e));
+            assert!(
+                a.triangle_count() <= b.triangle_count(),
+                "{name} at {e}: {} against {}",
+                a.triangle_count(),
+                b.triangle_count()
+            );
+            fewer += b.triangle_count() - a.triangle_count();
+            let r = report(&a, field, grid.cell_size);
+            if clean().any(|n| n == name) {
+                assert_clean(&r, &format!("{name} at {e}"));
+            }
+            if let Some(m) = &r.materials {
+                assert_eq!(m.mismatched_vertices, Some(0), "{name} at {e}: {m:?}");
+            }
+        }
+    }
+    println!("triangles fewer than without the limit, over the scenes and thresholds: {fewer}");
+    // Out of range: a NaN limit, or one above the largest, is refused by name.
+    let scene = scenes::scene("sphere").unwrap();
+    for (min_threshold, max_threshold) in [(f32::NAN, f32::INFINITY), (0.5, 0.1)] {
+        let bad = Settings {
+            min_threshold,
+            max_threshold,
+            ..Settings::default()
+        };
+        let err = KdTree::build(&*scene.field, &Grid::cube(1.0, 8), &bad).unwrap_err();
+        assert!(err.to_string().contains("min_threshold"), "{err}");
+    }
+}
+
 /// No flipped, crossing or overlapping face within one chunk's interior mesh;
 /// returns its zero-area faces (a chunk's cells can give one where the single
 /// grid's do not: it has other cells).

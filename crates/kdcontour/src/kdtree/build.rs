@@ -61,7 +61,7 @@ const SAME_SLAB: u16 = 2;
 pub(crate) fn build_in(
     h: &Hermite,
     field: &dyn Field,
-    (partition, max_threshold): (Partition, f32),
+    (partition, (min_threshold, max_threshold)): (Partition, (f32, f32)),
     (core_min, core_max): ([u16; 3], [u16; 3]),
     (finer_faces, same_faces): (u8, u8),
     coarser: Option<&Coarser>,
@@ -137,6 +137,7 @@ pub(crate) fn build_in(
         stats: Default::default(),
         materials: Vec::new(),
         max_threshold,
+        min_threshold,
     };
     refuse_folding_leaves(&mut tree, h, h.surface(field).field(), coarser);
     tree

@@ -544,23 +544,39 @@ fn check_edge(
     // Per corner, its current rung: the highest within the threshold. Each
     // ladder's errors grow going up, so the thresholds at which the polygon
     // changes are those of the corners' next rungs, lowest first: the four
-    // ladders are merged as the sweep goes.
+    // ladders are merged as the sweep goes. It starts at the tree's smallest
+    // threshold: no cut is lower, so the polygons below it are never shown.
     let mut at = [0usize; 4];
-    loop {
-        let next = (0..4).filter_map(|q| s.ladders[q].get(at[q] + 1).map(|r| r.error));
-        let Some(t) = next.min_by(f32::total_cmp) else {
-            break;
-        };
-        let before = at;
-        for (q, l) in s.ladders.iter().enumerate() {
+    let mut t = tree.min_threshold;
+    let climb_to = |at: &mut [usize; 4], t: f32, ladders: &[Vec<Rung>; 4]| {
+        for (q, l) in ladders.iter().enumerate() {
             while at[q] + 1 < l.len() && l[at[q] + 1].error <= t {
                 at[q] += 1;
             }
         }
-        // No corner can climb (the errors left are not numbers).
-        if at == before {
-            break;
-        }
+    };
+    climb_to(&mut at, t, &s.ladders);
+    // The polygon at the smallest threshold, when a corner already climbed to
+    // it, is checked first (as if each corner climbed there at once).
+    let mut start = at != [0; 4];
+    loop {
+        let before = if start {
+            [0; 4]
+        } else {
+            let next = (0..4).filter_map(|q| s.ladders[q].get(at[q] + 1).map(|r| r.error));
+            let Some(next) = next.min_by(f32::total_cmp) else {
+                break;
+            };
+            t = next;
+            let before = at;
+            climb_to(&mut at, t, &s.ladders);
+            // No corner can climb (the errors left are not numbers).
+            if at == before {
+                break;
+            }
+            before
+        };
+        start = false;
         // Two corners in one leaf stay in one leaf as the threshold grows (their
         // paths above it are the same): once the polygon has collapsed to fewer
         // than three corners, it never comes back.

@@ -112,6 +112,8 @@ pub struct KdTree {
     pub(crate) materials: Vec<crate::material::MaterialBlend>,
     /// The largest threshold it is cut at ([`crate::Settings::max_threshold`]).
     pub(crate) max_threshold: f32,
+    /// The smallest threshold it is cut at ([`crate::Settings::min_threshold`]).
+    pub(crate) min_threshold: f32,
 }
 
 impl std::fmt::Debug for KdTree {
@@ -166,6 +168,12 @@ impl KdTree {
         self.max_threshold
     }
 
+    /// The smallest threshold it is cut at: a cut at any lower threshold is the
+    /// cut at this one ([`crate::Settings::min_threshold`]).
+    pub fn min_threshold(&self) -> f32 {
+        self.min_threshold
+    }
+
     /// How the build went (times and sizes).
     pub fn stats(&self) -> BuildStats {
         self.stats
@@ -193,11 +201,13 @@ impl KdTree {
             + self.outside.capacity() * 8
     }
 
-    /// Whether node `n` is a leaf at threshold `e`: a cell, or clusterable with
-    /// error at most `e`.
+    /// Whether node `n` is a leaf at threshold `e` (no lower than the tree's
+    /// smallest, [`KdTree::min_threshold`]): a cell, or clusterable with error
+    /// at most `e`.
     #[inline]
     pub(crate) fn is_leaf(&self, n: u32, e: f32) -> bool {
         let node = &self.nodes[n as usize];
+        let e = e.max(self.min_threshold);
         node.axis == CELL || (node.clusterable && node.leaf_ok && node.error <= e)
     }
 

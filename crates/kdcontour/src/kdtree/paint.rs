@@ -46,7 +46,9 @@ pub(crate) fn paint_tree(tree: &mut KdTree, field: &dyn Field, settings: &crate:
 /// The nodes whose components some threshold makes leaves (see the module
 /// docs), as (node, first component, component count): every cell, and every
 /// clustered node that may be a leaf with an error below the nearest such
-/// ancestor's.
+/// ancestor's; of a tree with a smallest threshold
+/// ([`crate::Settings::min_threshold`]), only those a cut at it or above
+/// reaches.
 fn leaf_spans(tree: &KdTree) -> Vec<(u32, u32, usize)> {
     let mut spans = Vec::new();
     if tree.root == NONE {
@@ -57,7 +59,19 @@ fn leaf_spans(tree: &KdTree) -> Vec<(u32, u32, usize)> {
     while let Some((n, cap)) = stack.pop() {
         let node = &tree.nodes[n as usize];
         let may_be_leaf = node.clusterable && node.leaf_ok && node.comp_count > 0;
-        if node.axis == CELL || (may_be_leaf && node.error < cap) {
+        // The lowest threshold it is a leaf at: a cell's is any, but no cut is
+        // lower than the tree's smallest.
+        let from = if node.axis == CELL {
+            f32::NEG_INFINITY
+        } else {
+            node.error
+        };
+        let from = if from < tree.min_threshold {
+            tree.min_threshold
+        } else {
+            from
+        };
+        if (node.axis == CELL || may_be_leaf) && from < cap {
             spans.push((n, node.comp_start, node.comp_count as usize));
         }
         let cap = if may_be_leaf {
@@ -81,15 +95,30 @@ mod tests {
 
     /// At every threshold where the cut changes (each distinct error of a node
     /// that may be a leaf, and just below it), every vertex carries the field's
-    /// material: no component a cut reaches was left unpainted.
+    /// material: no component a cut reaches was left unpainted. A tree with a
+    /// smallest threshold paints fewer (no cell a cut at it passes by).
     #[test]
     fn every_cut_reaches_only_painted_components() {
-        for name in ["terrain", "caves"] {
+        for (name, min_threshold) in [
+            ("terrain", f32::NEG_INFINITY),
+            ("caves", f32::NEG_INFINITY),
+            ("terrain", 0.01),
+            ("caves", 0.003),
+        ] {
             let scene = scenes::scene(name).unwrap();
             let grid = Grid::cube(1.0, 20);
-            let tree = KdTree::build(&*scene.field, &grid, &Settings::default()).unwrap();
+            let settings = Settings {
+                min_threshold,
+                ..Settings::default()
+            };
+            let tree = KdTree::build(&*scene.field, &grid, &settings).unwrap();
             let spans = leaf_spans(&tree);
             let painted: usize = spans.iter().map(|s| s.2).sum();
+            if min_threshold.is_finite() {
+                let all = KdTree::build(&*scene.field, &grid, &Settings::default()).unwrap();
+                let unlimited: usize = leaf_spans(&all).iter().map(|s| s.2).sum();
+                assert!(painted < unlimited, "{name}: {painted} of {unlimited}");
+            }
             let old_rule: usize = tree
                 .nodes
                 .iter()
@@ -115,7 +144,11 @@ mod tests {
                 let m = validate(&mesh, Some((&*scene.field, grid.cell_size)))
                     .materials
                     .unwrap();
-                assert_eq!(m.mismatched_vertices, Some(0), "{name} at {t}: {m:?}");
+                assert_eq!(
+                    m.mismatched_vertices,
+                    Some(0),
+                    "{name} (min {min_threshold}) at {t}: {m:?}"
+                );
             }
         }
     }
