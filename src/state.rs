@@ -301,6 +301,13 @@ impl VolumeState {
     /// When it went down, every loaded chunk's tree, built for a higher one,
     /// is built again, so no chunk is cut coarser than it asks.
     pub(crate) fn cut_no_lower_than(&mut self, floor: f32) {
+        // Settings with no number for it (NaN) limit nothing: the thresholds
+        // themselves are refused where they are used.
+        let floor = if floor.is_nan() {
+            f32::NEG_INFINITY
+        } else {
+            floor
+        };
         let old = self.world.settings.min_threshold;
         if old.to_bits() == floor.to_bits() {
             return;
