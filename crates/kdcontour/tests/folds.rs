@@ -83,6 +83,14 @@ fn clean_scenes_stay_clean_at_every_threshold() {
     }
 }
 
+/// How many fewer triangles `a` (a tree built with a limit) has than `b` (the
+/// same cut of a tree built without); it may not have more.
+fn fewer_triangles(a: &IndexedMesh, b: &IndexedMesh, what: &str) -> usize {
+    let (a, b) = (a.triangle_count(), b.triangle_count());
+    assert!(a <= b, "{what}: {a} against {b}");
+    b - a
+}
+
 /// A tree built with a largest threshold (`Settings::max_threshold`) gives
 /// above it the mesh at it: no cut is one the fold guard did not check, so clean
 /// scenes stay clean at every threshold. Below it, meshes are those of a tree
@@ -108,12 +116,7 @@ fn a_largest_threshold_keeps_the_meshes_below_it_and_caps_the_cuts_above() {
         assert!(tree.mesh(-1.0) == unlimited.mesh(-1.0), "{name}");
         for e in [0.001, 0.01, 0.02, 0.03, limit] {
             let (a, b) = (tree.mesh(e), unlimited.mesh(e));
-            assert!(
-                a.triangle_count() <= b.triangle_count(),
-                "{name} at {e}: {} against {}",
-                a.triangle_count(),
-                b.triangle_count()
-            );
+            fewer_triangles(&a, &b, &format!("{name} at {e}"));
             if clean().any(|n| n == name) {
                 assert_clean(
                     &report(&a, &*scene.field, grid.cell_size),
@@ -188,13 +191,7 @@ fn a_smallest_threshold_keeps_the_meshes_above_it_and_lifts_the_cuts_below() {
         );
         for e in [limit, 0.02, 0.1, 1.0] {
             let (a, b) = (tree.mesh(e), unlimited.mesh(e));
-            assert!(
-                a.triangle_count() <= b.triangle_count(),
-                "{name} at {e}: {} against {}",
-                a.triangle_count(),
-                b.triangle_count()
-            );
-            fewer += b.triangle_count() - a.triangle_count();
+            fewer += fewer_triangles(&a, &b, &format!("{name} at {e}"));
             let r = report(&a, field, grid.cell_size);
             if clean().any(|n| n == name) {
                 assert_clean(&r, &format!("{name} at {e}"));
