@@ -314,11 +314,7 @@ impl VolumeState {
         }
         self.world.settings.min_threshold = floor;
         if floor < old {
-            let mut all: Vec<ChunkKey> = self.slots.keys().copied().collect();
-            all.sort_by_key(|c| c.order());
-            for c in &all {
-                self.mark_build(c);
-            }
+            self.mark_build_all();
         }
     }
 
@@ -543,6 +539,12 @@ impl VolumeState {
     pub(crate) fn rebuild_all(&mut self) -> Vec<ChunkKey> {
         let every = self.world.chunks();
         self.world.forget_samples(&every);
+        self.mark_build_all()
+    }
+
+    /// Queues a new build of every loaded chunk (in the world's order);
+    /// returns them.
+    fn mark_build_all(&mut self) -> Vec<ChunkKey> {
         let mut all: Vec<ChunkKey> = self.slots.keys().copied().collect();
         all.sort_by_key(|c| c.order());
         for c in &all {
