@@ -1,7 +1,10 @@
 //! Camera-driven level of detail: [`LodPlugin`] sets each chunk's threshold
 //! from its distance to the [`LodCamera`] on the curve of
 //! [`crate::LodSettings`], with hysteresis, and queues a re-cut of the retained
-//! tree (never a re-sample) where it changed (in [`KdContourSystems::Lod`](crate::KdContourSystems::Lod)).
+//! tree (never a re-sample) where it changed (in [`KdContourSystems::Lod`](crate::KdContourSystems::Lod));
+//! and has every volume's trees built for cuts no lower than the lowest threshold
+//! the settings and the chunks' extras can ask (a tree then skips the work only
+//! finer cuts need; lowering it rebuilds the volume's trees).
 
 use crate::messages::LodChanged;
 use crate::settings::KdContourSettings;
@@ -19,8 +22,41 @@ impl Plugin for LodPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<MainThreadClock>()
             .init_resource::<KdContourSettings>()
-            .add_systems(PostUpdate, update_lod.in_set(KdContourStep::Thresholds));
+            .add_systems(
+                PostUpdate,
+                (floor_trees, update_lod).in_set(KdContourStep::Thresholds),
+            );
     }
+}
+
+/// Builds every volume's trees from now on for cuts no lower than the lowest
+/// threshold its chunks can be given ([`VolumeState::lowest_threshold`]),
+/// rounded down to a power of ten, nor higher than the highest they serve (a
+/// streaming volume's, set while its chunks are chosen). The rounding keeps a
+/// threshold slider dragged down from rebuilding every tree on each frame: the
+/// trees are built again once per decade crossed.
+fn floor_trees(
+    settings: Res<KdContourSettings>,
+    clock: Res<MainThreadClock>,
+    mut volumes: Query<&mut VolumeState>,
+) {
+    let _time = clock.measure();
+    for mut state in &mut volumes {
+        let floor = decade_at_or_below(state.lowest_threshold(&settings));
+        state.cut_no_lower_than(floor);
+    }
+}
+
+/// The largest power of ten at or below `x` (`x` itself when it is not a
+/// positive finite number, or is a power of ten to rounding).
+fn decade_at_or_below(x: f32) -> f32 {
+    if !(x > 0.0 && x.is_finite()) {
+        return x;
+    }
+    // A power of ten in f32 may sit a hair below its true value: round its
+    // logarithm up by a millionth of a decade, then never pass `x`.
+    let decade = 10f64.powi(((x as f64).log10() + 1e-6).floor() as i32) as f32;
+    decade.min(x)
 }
 
 pub(crate) fn update_lod(
@@ -88,6 +124,39 @@ pub(crate) fn update_lod(
                     threshold: want,
                 });
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::decade_at_or_below;
+
+    #[test]
+    fn floors_round_down_to_a_power_of_ten() {
+        for (x, want) in [
+            (0.01f32, 0.01f32),
+            (0.001, 0.001),
+            (0.0099, 0.001),
+            (0.02, 0.01),
+            (0.0002, 0.0001),
+            (1.0, 1.0),
+            (7.5, 1.0),
+            (12.0, 10.0),
+            (1e-5, 1e-5),
+        ] {
+            assert_eq!(decade_at_or_below(x), want, "{x}");
+        }
+        assert_eq!(decade_at_or_below(0.0), 0.0);
+        assert_eq!(decade_at_or_below(-1.0), -1.0);
+        assert_eq!(decade_at_or_below(f32::INFINITY), f32::INFINITY);
+        assert!(decade_at_or_below(f32::NAN).is_nan());
+        // Never above what it is given, whatever the rounding.
+        let mut x = 1e-7f32;
+        while x < 1e4 {
+            assert!(decade_at_or_below(x) <= x, "{x}");
+            assert!(decade_at_or_below(x) * 10.0 > x * 0.999_999, "{x}");
+            x *= 1.37;
         }
     }
 }

@@ -297,16 +297,17 @@ impl VolumeState {
     }
 
     /// Builds trees from now on for cuts no lower than `floor`
-    /// ([`kdcontour::Settings::min_threshold`]: a lower cut is the cut at it).
-    /// When it went down, every loaded chunk's tree, built for a higher one,
-    /// is built again, so no chunk is cut coarser than it asks.
+    /// ([`kdcontour::Settings::min_threshold`]: a lower cut is the cut at it),
+    /// or than the highest cut they serve ([`kdcontour::Settings::max_threshold`])
+    /// if that is lower. When it went down, every loaded chunk's tree, built for
+    /// a higher one, is built again, so no chunk is cut coarser than it asks.
     pub(crate) fn cut_no_lower_than(&mut self, floor: f32) {
         // Settings with no number for it (NaN) limit nothing: the thresholds
         // themselves are refused where they are used.
         let floor = if floor.is_nan() {
             f32::NEG_INFINITY
         } else {
-            floor
+            floor.min(self.world.settings.max_threshold)
         };
         let old = self.world.settings.min_threshold;
         if old.to_bits() == floor.to_bits() {

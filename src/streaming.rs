@@ -1,8 +1,8 @@
 //! Streaming: [`StreamingPlugin`] loads the chunks of unbounded volumes
 //! ([`crate::KdVolume::streaming`]) around the [`LodCamera`], nearest first, and
 //! drops those left behind (their trees built for the thresholds the LOD asks
-//! within the view distance, [`max_threshold`], and no lower than the lowest
-//! the settings and the chunks' extras ask); lays horizon volumes ([`crate::KdVolume::horizon`])
+//! within the view distance, [`max_threshold`]; the lowest they serve is the
+//! [`crate::LodPlugin`]'s to set); lays horizon volumes ([`crate::KdVolume::horizon`])
 //! out in chunk levels around the camera ([`crate::horizon`]); and for every
 //! volume points scheduling at the camera (in [`KdContourSystems::Lod`](crate::KdContourSystems::Lod), before
 //! thresholds are set).
@@ -68,7 +68,6 @@ fn stream_chunks(
                 if state.world().settings.max_threshold.to_bits() != limit.to_bits() {
                     state.world_mut().settings.max_threshold = limit;
                 }
-                state.cut_no_lower_than(state.lowest_threshold(&settings).min(limit));
                 crate::horizon::stream(
                     &mut commands,
                     entity,
@@ -88,8 +87,6 @@ fn stream_chunks(
         if state.world().settings.max_threshold.to_bits() != limit.to_bits() {
             state.world_mut().settings.max_threshold = limit;
         }
-        // ... and no lower than any it can ask.
-        state.cut_no_lower_than(state.lowest_threshold(&settings).min(limit));
         let key = (
             state.world().chunk_at(local),
             view_distance.to_bits() as u64,
