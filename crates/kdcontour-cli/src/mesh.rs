@@ -156,9 +156,10 @@ fn make(
         };
         return Ok((mesh, times, None));
     }
+    // One mesh: the tree is built for this cut alone.
     let settings = Settings {
         partition,
-        ..settings.clone()
+        ..settings.for_one_cut(threshold)
     };
     let tree = KdTree::build(field, grid, &settings)?;
     progress.stage(format!("contouring {} nodes", tree.node_count()));

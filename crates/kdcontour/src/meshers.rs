@@ -137,9 +137,10 @@ pub fn run(
                 } else {
                     Partition::KdTree
                 };
+                // One mesh: the tree is built for this cut alone.
                 let settings = Settings {
                     partition,
-                    ..settings.clone()
+                    ..settings.for_one_cut(threshold)
                 };
                 let tree = pipeline::tree(&s.hermite, s.field, &settings, Cells::All);
                 t.build_ms = t0.elapsed().as_secs_f64() * 1e3;

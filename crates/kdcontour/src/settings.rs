@@ -86,6 +86,24 @@ const THREAD_STACK: u64 = 2 << 20;
 const THREAD_STACK_MARGIN: u64 = 256 << 10;
 
 impl Settings {
+    /// These settings for a tree cut at `threshold` alone (a one-off mesh):
+    /// [`Settings::min_threshold`] and [`Settings::max_threshold`] both
+    /// `threshold`, so the build skips the work only other cuts need. Its mesh
+    /// at `threshold` is checked as any cut is, but its polygons are seen as
+    /// they stand at it, not as they grew from lower cuts: where one folds the
+    /// guard may refuse another node than a tree for every threshold does, so
+    /// the two meshes differ by a few merges either way (mostly fewer
+    /// triangles), neither folded. A threshold that is not finite changes
+    /// nothing.
+    pub fn for_one_cut(&self, threshold: f32) -> Settings {
+        let mut s = self.clone();
+        if threshold.is_finite() {
+            s.min_threshold = threshold;
+            s.max_threshold = threshold;
+        }
+        s
+    }
+
     /// Checks every setting's range.
     pub fn check(&self) -> Result<()> {
         if self.threads > 1024 {
