@@ -7,7 +7,8 @@
 //! 1. [`clusterable_children`], [`inhomogeneous_corners`] and
 //!    [`edge_sign_changes`]: the paper's three conditions (a leaf; one clusterable
 //!    child and inhomogeneous corners; two clusterable children and at most one
-//!    sign change on each edge crossing the split plane).
+//!    sign change on each edge crossing the split plane), and no child above the
+//!    tree's largest threshold.
 //! 2. [`merge_across_split_plane`] and [`component_classes`]: "combining adjacent
 //!    components of its child nodes while simultaneously inheriting disadjacent
 //!    components".
@@ -86,7 +87,7 @@ fn merge_children(
     kid_comps: usize,
     left_ids: &[u32],
 ) -> Option<Merged> {
-    let (kids, nkids) = clusterable_children(arena, node)?;
+    let (kids, nkids) = clusterable_children(arena, node, ctx.max_threshold)?;
     let bounds = NodeBox::of(node);
     let config = inhomogeneous_corners(ctx, &bounds)?;
     let edges = edge_sign_changes(arena, node)?;
@@ -108,13 +109,17 @@ fn merge_children(
 }
 
 /// The node's children that exist (a pruned half holds no active cell), all of
-/// which must be clusterable.
-fn clusterable_children(arena: &Arena, node: &KdNode) -> Option<([u32; 2], usize)> {
+/// which must be clusterable, with errors no higher than the tree's largest
+/// threshold `max` ([`crate::Settings::max_threshold`]): above a child that
+/// exceeds it the node would too (errors never decrease going up), so no cut
+/// could ever reach it, and it is not clustered at all.
+fn clusterable_children(arena: &Arena, node: &KdNode, max: f32) -> Option<([u32; 2], usize)> {
     let mut kids = [NONE; 2];
     let mut nkids = 0;
     for c in node.children {
         if c != NONE {
-            if !arena.nodes[c as usize].clusterable {
+            let kid = &arena.nodes[c as usize];
+            if !kid.clusterable || kid.error > max {
                 return None;
             }
             kids[nkids] = c;
