@@ -91,6 +91,18 @@ fn fewer_triangles(a: &IndexedMesh, b: &IndexedMesh, what: &str) -> usize {
     b - a
 }
 
+/// A cut of a tree built with a limit: clean where the scene is clean (by
+/// [`clean`]), and every vertex carries the field's material.
+fn assert_limited_cut(mesh: &IndexedMesh, field: &dyn Field, cell: f32, what: &str, name: &str) {
+    let r = report(mesh, field, cell);
+    if clean().any(|n| n == name) {
+        assert_clean(&r, what);
+    }
+    if let Some(m) = &r.materials {
+        assert_eq!(m.mismatched_vertices, Some(0), "{what}: {m:?}");
+    }
+}
+
 /// A tree built with a largest threshold (`Settings::max_threshold`) gives
 /// above it the mesh at it: no cut is one the fold guard did not check, so clean
 /// scenes stay clean at every threshold. Below it, meshes are those of a tree
@@ -196,13 +208,7 @@ fn a_smallest_threshold_keeps_the_meshes_above_it_and_lifts_the_cuts_below() {
         for e in [limit, 0.02, 0.1, 1.0] {
             let (a, b) = (tree.mesh(e), unlimited.mesh(e));
             fewer += fewer_triangles(&a, &b, &format!("{name} at {e}"));
-            let r = report(&a, field, grid.cell_size);
-            if clean().any(|n| n == name) {
-                assert_clean(&r, &format!("{name} at {e}"));
-            }
-            if let Some(m) = &r.materials {
-                assert_eq!(m.mismatched_vertices, Some(0), "{name} at {e}: {m:?}");
-            }
+            assert_limited_cut(&a, field, grid.cell_size, &format!("{name} at {e}"), name);
         }
     }
     println!("triangles fewer than without the limit, over the scenes and thresholds: {fewer}");
@@ -246,13 +252,7 @@ fn a_tree_for_one_cut_meshes_it_as_cleanly() {
             for other in [-1.0, e / 2.0, e * 2.0] {
                 assert!(tree.mesh(other) == a, "{name}: {other} against {e}");
             }
-            let r = report(&a, field, grid.cell_size);
-            if clean().any(|n| n == name) {
-                assert_clean(&r, &format!("{name} at {e}"));
-            }
-            if let Some(m) = &r.materials {
-                assert_eq!(m.mismatched_vertices, Some(0), "{name} at {e}: {m:?}");
-            }
+            assert_limited_cut(&a, field, grid.cell_size, &format!("{name} at {e}"), name);
         }
     }
     println!("triangles fewer than a tree for every threshold gives: {fewer}");
