@@ -42,7 +42,7 @@
 //! | `volume` | [`VolumePlugin`] | [`KdVolume`], [`KdChunk`]; a [`VolumeState`] per volume; the system sets |
 //! | `edits` | [`EditsPlugin`] | [`ApplyEdit`], [`UndoEdit`], [`RedoEdit`], [`ReplaceField`] |
 //! | `streaming` | [`StreamingPlugin`] | loads and drops chunks around the camera; lays horizon volumes out in chunk levels (`horizon`) |
-//! | `lod` | [`LodPlugin`] | thresholds from the camera |
+//! | `lod` | [`LodPlugin`] | thresholds from the camera; the lowest threshold each volume's trees are built for |
 //! | `tasks` | [`TasksPlugin`] | builds and extractions on the task pool |
 //! | `upload` | [`UploadPlugin`] | meshes onto the chunk entities |
 //! | `persist` | [`PersistPlugin`] | saves and loads the edits of [`KdSave`] volumes |
