@@ -91,6 +91,15 @@ fn fewer_triangles(a: &IndexedMesh, b: &IndexedMesh, what: &str) -> usize {
     b - a
 }
 
+/// The built-in scene `name` over a 32-cell grid and its tree built with no
+/// limit, for the limit tests to compare against.
+fn unlimited_at_32(name: &str) -> (Box<dyn Field>, Grid, KdTree) {
+    let field = scenes::scene(name).unwrap().field;
+    let grid = Grid::cube(1.0, 32);
+    let tree = KdTree::build(&*field, &grid, &Settings::default()).unwrap();
+    (field, grid, tree)
+}
+
 /// A cut of a tree built with a limit: clean where the scene is clean (by
 /// [`clean`]), and every vertex carries the field's material.
 fn assert_limited_cut(mesh: &IndexedMesh, field: &dyn Field, cell: f32, what: &str, name: &str) {
@@ -185,10 +194,8 @@ fn a_smallest_threshold_keeps_the_meshes_above_it_and_lifts_the_cuts_below() {
         "caves",
         "box",
     ] {
-        let scene = scenes::scene(name).unwrap();
-        let field = &*scene.field;
-        let grid = Grid::cube(1.0, 32);
-        let unlimited = KdTree::build(field, &grid, &Settings::default()).unwrap();
+        let (field, grid, unlimited) = unlimited_at_32(name);
+        let field = &*field;
         let limited = Settings {
             min_threshold: limit,
             ..Settings::default()
@@ -240,10 +247,8 @@ fn a_tree_for_one_cut_meshes_it_as_cleanly() {
         "sphere",
         "box",
     ] {
-        let scene = scenes::scene(name).unwrap();
-        let field = &*scene.field;
-        let grid = Grid::cube(1.0, 32);
-        let every = KdTree::build(field, &grid, &Settings::default()).unwrap();
+        let (field, grid, every) = unlimited_at_32(name);
+        let field = &*field;
         for e in [0.001, 0.01, 0.1] {
             let tree = KdTree::build(field, &grid, &Settings::default().for_one_cut(e)).unwrap();
             assert_eq!((tree.min_threshold(), tree.max_threshold()), (e, e));
