@@ -61,24 +61,30 @@ fn assert_clean(r: &MeshReport, what: &str) {
 
 #[test]
 fn clean_scenes_stay_clean_at_every_threshold() {
-    // With material borders (csg_mix's five parts) and without.
+    for name in clean() {
+        assert_one_grid_clean(name);
+    }
+}
+
+/// The built-in scene `name` on one grid of 32 and of 64 cells is clean at
+/// every threshold, with material borders (csg_mix's five parts, the
+/// terrain's slope and height materials) and without.
+fn assert_one_grid_clean(name: &str) {
+    let scene = scenes::scene(name).unwrap();
     for material_borders in [true, false] {
         let settings = Settings {
             material_borders,
             ..Settings::default()
         };
-        for name in clean() {
-            let scene = scenes::scene(name).unwrap();
-            for res in [32, 64] {
-                let grid = Grid::cube(1.0, res);
-                let tree = KdTree::build(&*scene.field, &grid, &settings).unwrap();
-                for e in THRESHOLDS {
-                    let r = report(&tree.mesh(e), &*scene.field, grid.cell_size);
-                    assert_clean(
-                        &r,
-                        &format!("{name} res {res} e {e} borders {material_borders}"),
-                    );
-                }
+        for res in [32, 64] {
+            let grid = Grid::cube(1.0, res);
+            let tree = KdTree::build(&*scene.field, &grid, &settings).unwrap();
+            for e in THRESHOLDS {
+                let r = report(&tree.mesh(e), &*scene.field, grid.cell_size);
+                assert_clean(
+                    &r,
+                    &format!("{name} res {res} e {e} borders {material_borders}"),
+                );
             }
         }
     }
@@ -94,24 +100,7 @@ fn clean_scenes_stay_clean_at_every_threshold() {
 /// too.)
 #[test]
 fn the_boxed_terrain_is_clean_at_every_threshold() {
-    let scene = scenes::scene("terrain").unwrap();
-    for material_borders in [true, false] {
-        let settings = Settings {
-            material_borders,
-            ..Settings::default()
-        };
-        for res in [32, 64] {
-            let grid = Grid::cube(1.0, res);
-            let tree = KdTree::build(&*scene.field, &grid, &settings).unwrap();
-            for e in THRESHOLDS {
-                let r = report(&tree.mesh(e), &*scene.field, grid.cell_size);
-                assert_clean(
-                    &r,
-                    &format!("terrain res {res} e {e} borders {material_borders}"),
-                );
-            }
-        }
-    }
+    assert_one_grid_clean("terrain");
 }
 
 /// How many fewer triangles `a` (a tree built with a limit) has than `b` (the
