@@ -111,6 +111,11 @@ fn fewer_triangles(a: &IndexedMesh, b: &IndexedMesh, what: &str) -> usize {
     b - a
 }
 
+/// The scenes the limit tests build trees of (each adds one of its own): thin
+/// and crossing sheets, CSG creases and materials, a noise height field, flat
+/// faces.
+const LIMIT_SCENES: [&str; 5] = ["gyroid", "csg_mix", "thin_plates", "terrain", "box"];
+
 /// The built-in scene `name` over a 32-cell grid and its tree built with no
 /// limit, for the limit tests to compare against.
 fn unlimited_at_32(name: &str) -> (Box<dyn Field>, Grid, KdTree) {
@@ -206,14 +211,7 @@ fn a_largest_threshold_keeps_the_meshes_below_it_and_caps_the_cuts_above() {
 fn a_smallest_threshold_keeps_the_meshes_above_it_and_lifts_the_cuts_below() {
     let limit = 0.01;
     let mut fewer = 0;
-    for name in [
-        "gyroid",
-        "csg_mix",
-        "thin_plates",
-        "terrain",
-        "caves",
-        "box",
-    ] {
+    for name in LIMIT_SCENES.into_iter().chain(["caves"]) {
         let (field, grid, unlimited) = unlimited_at_32(name);
         let field = &*field;
         let limited = Settings {
@@ -259,14 +257,7 @@ fn a_smallest_threshold_keeps_the_meshes_above_it_and_lifts_the_cuts_below() {
 #[test]
 fn a_tree_for_one_cut_meshes_it_as_cleanly() {
     let mut fewer = 0;
-    for name in [
-        "gyroid",
-        "csg_mix",
-        "thin_plates",
-        "terrain",
-        "sphere",
-        "box",
-    ] {
+    for name in LIMIT_SCENES.into_iter().chain(["sphere"]) {
         let (field, grid, every) = unlimited_at_32(name);
         let field = &*field;
         for e in [0.001, 0.01, 0.1] {
